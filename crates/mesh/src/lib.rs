@@ -15,7 +15,7 @@ pub mod synth;
 mod topology;
 
 pub use error::{ErrorKind, Location, MeshError};
-pub use io::{Format, LoadedMesh, read_mesh, write_off, write_ply_colored};
+pub use io::{Format, LoadedMesh, read_mesh, read_mesh_from_bytes, write_off, write_ply_colored};
 pub use nalgebra::{Point3, Vector3};
 pub use topology::Topology;
 
@@ -76,8 +76,9 @@ impl Mesh {
             .iter()
             .position(|p| !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()))
         {
-            return Err(MeshError::new(ErrorKind::NonFiniteCoordinate)
-                .at(Location::Vertex(i as u64)));
+            return Err(
+                MeshError::new(ErrorKind::NonFiniteCoordinate).at(Location::Vertex(i as u64))
+            );
         }
         let n = positions.len();
         let mut repairs = Repairs::default();

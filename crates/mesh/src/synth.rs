@@ -205,7 +205,10 @@ mod tests {
             assert!(Topology::new(&m2).boundary_vertices().is_empty());
         }
         let a = total_area(&icosphere(5, 1.0));
-        assert!((a - 4.0 * std::f64::consts::PI).abs() / a < 2e-3, "area {a}");
+        assert!(
+            (a - 4.0 * std::f64::consts::PI).abs() / a < 2e-3,
+            "area {a}"
+        );
     }
 
     #[test]

@@ -1,10 +1,37 @@
-//! Reading and writing mesh files. The format is chosen by extension.
+//! Reading and writing mesh files. The format is chosen by the file's extension
+//! (case-insensitive): `.off`, `.obj`, `.ply`, `.stl`.
 //!
-//! (Being written: see the module files.)
+//! Every reader parses the file into raw vertices and triangles and then validates them with
+//! [`Mesh::from_raw`]: vertex ids are the file's own vertex order (never welded or reordered,
+//! except STL, whose corners are merged by position), polygons are fan-triangulated, degenerate
+//! faces are dropped and counted in [`Repairs`]. Bad input is an error naming the file, where in
+//! it (a line for text formats, an element, facet or byte for binary ones) and why; no input makes
+//! a reader panic or allocate more than the file's size justifies.
+//!
+//! Writers ([`write_off`], [`write_ply_colored`]) write atomically: to a temporary file in the
+//! same directory, synced, then renamed over the target, so an error never leaves a half-written
+//! file.
+//!
+//! Each format's conventions are documented in its module (`off.rs`, `obj.rs`, `ply.rs`,
+//! `stl.rs` in this folder).
+
+mod obj;
+mod off;
+mod ply;
+mod stl;
+mod text;
+mod write;
+
+#[cfg(test)]
+mod fixtures;
+#[cfg(test)]
+mod tests;
 
 use std::path::Path;
 
-use crate::{Mesh, MeshError, Repairs};
+use crate::{ErrorKind, Mesh, MeshError, Point3, Repairs, VertexId};
+
+pub use write::{write_off, write_ply_colored};
 
 /// A supported mesh file format.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -19,6 +46,40 @@ pub enum Format {
     Stl,
 }
 
+impl Format {
+    /// The format for a file extension (without the dot, case-insensitive), if supported.
+    pub fn from_extension(extension: &str) -> Option<Format> {
+        match extension.to_ascii_lowercase().as_str() {
+            "off" => Some(Format::Off),
+            "obj" => Some(Format::Obj),
+            "ply" => Some(Format::Ply),
+            "stl" => Some(Format::Stl),
+            _ => None,
+        }
+    }
+
+    /// The format of a path, from its extension. Errors with [`ErrorKind::UnknownFormat`] (and
+    /// the path) when the extension is missing or not supported.
+    pub fn from_path(path: &Path) -> Result<Format, MeshError> {
+        let extension = path
+            .extension()
+            .map(|e| e.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        Format::from_extension(&extension)
+            .ok_or_else(|| MeshError::new(ErrorKind::UnknownFormat { extension }).in_file(path))
+    }
+
+    /// The usual lower-case file extension, without the dot.
+    pub fn extension(self) -> &'static str {
+        match self {
+            Format::Off => "off",
+            Format::Obj => "obj",
+            Format::Ply => "ply",
+            Format::Stl => "stl",
+        }
+    }
+}
+
 /// A mesh read from a file, with what was repaired on the way.
 #[derive(Debug, Clone)]
 pub struct LoadedMesh {
@@ -30,20 +91,35 @@ pub struct LoadedMesh {
     pub format: Format,
 }
 
+/// Vertices and triangles as parsed, before validation.
+#[derive(Debug)]
+pub(crate) struct RawMesh {
+    pub(crate) positions: Vec<Point3<f64>>,
+    pub(crate) faces: Vec<[VertexId; 3]>,
+}
+
 /// Reads and validates a mesh file; the format is chosen by the file's extension.
+///
+/// Errors carry the path; see the module documentation for what is checked.
 pub fn read_mesh(path: &Path) -> Result<LoadedMesh, MeshError> {
-    let _ = path;
-    todo!("io helper")
+    let format = Format::from_path(path)?;
+    let bytes = std::fs::read(path).map_err(|e| MeshError::from(e).in_file(path))?;
+    read_mesh_from_bytes(&bytes, format).map_err(|e| e.in_file(path))
 }
 
-/// Writes `mesh` as ascii OFF.
-pub fn write_off(mesh: &Mesh, path: &Path) -> Result<(), MeshError> {
-    let _ = (mesh, path);
-    todo!("io helper")
-}
-
-/// Writes `mesh` as binary little-endian PLY with one RGB colour per vertex.
-pub fn write_ply_colored(mesh: &Mesh, colors: &[[u8; 3]], path: &Path) -> Result<(), MeshError> {
-    let _ = (mesh, colors, path);
-    todo!("io helper")
+/// Parses and validates the contents of a mesh file in the given format. Errors carry no path
+/// (see [`read_mesh`]); useful for data not in a file, tests and fuzzing.
+pub fn read_mesh_from_bytes(bytes: &[u8], format: Format) -> Result<LoadedMesh, MeshError> {
+    let raw = match format {
+        Format::Off => off::read_off(bytes),
+        Format::Obj => obj::read_obj(bytes),
+        Format::Ply => ply::read_ply(bytes),
+        Format::Stl => stl::read_stl(bytes),
+    }?;
+    let (mesh, repairs) = Mesh::from_raw(raw.positions, raw.faces)?;
+    Ok(LoadedMesh {
+        mesh,
+        repairs,
+        format,
+    })
 }

@@ -1,0 +1,305 @@
+//! Test-only writers for every readable format and variant, to build round-trip and fuzzing
+//! inputs from meshes generated in code. They are deliberately simple and independent of the
+//! readers (binary STL is written by the `stl_io` crate).
+
+use std::collections::HashMap;
+use std::fmt::Write as _;
+
+use crate::{Mesh, VertexId};
+
+/// OFF variants: plain, comments everywhere with `NOFF` normals, `COFF` with colours and counts on
+/// the header line, `CNOFF` with CRLF line ends, and no header keyword at all.
+pub(crate) fn off_variants(m: &Mesh) -> Vec<(&'static str, Vec<u8>)> {
+    let (nv, nf) = (m.positions.len(), m.faces.len());
+    let mut plain = format!("OFF\n{nv} {nf} 0\n");
+    let mut noff = format!("# made in a test\nNOFF # normals follow\n\n# counts\n{nv} {nf} 0\n");
+    let mut coff = format!("COFF {nv} {nf} {}\n", 3 * nf / 2);
+    let mut cnoff = format!("CNOFF\r\n{nv} {nf} 0\r\n");
+    let mut bare = format!("{nv} {nf} 0\n");
+    for (i, p) in m.positions.iter().enumerate() {
+        let xyz = format!("{} {} {}", p.x, p.y, p.z);
+        writeln!(plain, "{xyz}").unwrap();
+        writeln!(noff, "  {xyz}  0 0 1 # vertex {i}").unwrap();
+        writeln!(coff, "{xyz} 255 128 0 255").unwrap();
+        write!(cnoff, "{xyz} 0 0 1 0.5 0.5 0.5 1\r\n").unwrap();
+        writeln!(bare, "{xyz}").unwrap();
+        if i == 0 {
+            noff.push_str("# a comment between vertices\n\n");
+        }
+    }
+    for [a, b, c] in &m.faces {
+        writeln!(plain, "3 {a} {b} {c}").unwrap();
+        writeln!(noff, "3\t{a} {b}  {c}").unwrap();
+        writeln!(coff, "3 {a} {b} {c} 1 0 0").unwrap();
+        write!(cnoff, "3 {a} {b} {c}\r\n").unwrap();
+        writeln!(bare, "3 {a} {b} {c}").unwrap();
+    }
+    noff.push_str("# trailing comment\n");
+    vec![
+        ("OFF", plain.into_bytes()),
+        ("NOFF+comments", noff.into_bytes()),
+        ("COFF", coff.into_bytes()),
+        ("CNOFF+CRLF", cnoff.into_bytes()),
+        ("no keyword", bare.into_bytes()),
+    ]
+}
+
+/// OBJ variants: plain; `v/vt/vn` corners in two objects whose vertices are interleaved with
+/// faces (faces referring to vertices defined later); and negative (relative) indices, each face
+/// written after its vertices.
+pub(crate) fn obj_variants(m: &Mesh) -> Vec<(&'static str, Vec<u8>)> {
+    let n = m.positions.len();
+    let v = |i: usize| {
+        let p = m.positions[i];
+        format!("v {} {} {}\n", p.x, p.y, p.z)
+    };
+    let mut plain = String::from("# plain\n");
+    (0..n).for_each(|i| plain.push_str(&v(i)));
+    for [a, b, c] in &m.faces {
+        writeln!(plain, "f {} {} {}", a + 1, b + 1, c + 1).unwrap();
+    }
+
+    let half = n / 2;
+    let (f1, f2) = m.faces.split_at(m.faces.len() / 2);
+    let mut objects = String::from("mtllib none.mtl\no first\n");
+    (0..half).for_each(|i| objects.push_str(&v(i)));
+    objects.push_str("vt 0.5 0.5\nvn 0 0 1\ng part\nusemtl x\ns off\n");
+    for [a, b, c] in f1 {
+        writeln!(objects, "f {}/1/1 {}/1/1 {}/1/1", a + 1, b + 1, c + 1).unwrap();
+    }
+    objects.push_str("o second\n");
+    for [a, b, c] in f2 {
+        writeln!(objects, "f {}//1 {}//1 {}//1", a + 1, b + 1, c + 1).unwrap();
+    }
+    (half..n).for_each(|i| objects.push_str(&v(i)));
+
+    // Relative indices: each face right after the vertex that completes it.
+    let mut relative = String::new();
+    let mut by_last: HashMap<VertexId, Vec<[VertexId; 3]>> = HashMap::new();
+    for f in &m.faces {
+        by_last
+            .entry(*f.iter().max().unwrap())
+            .or_default()
+            .push(*f);
+    }
+    for i in 0..n {
+        relative.push_str(&v(i));
+        for f in by_last.get(&(i as VertexId)).into_iter().flatten() {
+            let r = f.map(|x| x as i64 - (i as i64 + 1));
+            writeln!(relative, "f {}/1 {}/1 {}/1", r[0], r[1], r[2]).unwrap();
+        }
+    }
+    vec![
+        ("plain", plain.into_bytes()),
+        ("objects", objects.into_bytes()),
+        ("relative", relative.into_bytes()),
+    ]
+}
+
+/// Face order after [`obj_variants`]' "objects" and "relative" layouts: compare faces as sorted
+/// multisets when the layout changes the order.
+pub(crate) fn sorted_faces(faces: &[[VertexId; 3]]) -> Vec<[VertexId; 3]> {
+    let mut v: Vec<_> = faces
+        .iter()
+        .map(|f| {
+            // Rotate so the smallest id comes first (keeps the winding).
+            let k = (0..3).min_by_key(|&k| f[k]).unwrap();
+            [f[k], f[(k + 1) % 3], f[(k + 2) % 3]]
+        })
+        .collect();
+    v.sort_unstable();
+    v
+}
+
+/// PLY encodings.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum PlyEncoding {
+    Ascii,
+    Little,
+    Big,
+}
+
+/// How the PLY stores its triangles.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum PlyFaces {
+    /// `element face` with a `list uchar int vertex_indices`.
+    Faces,
+    /// `element face` with a `list ushort uint vertex_index` and an extra flag property.
+    FacesIndex,
+    /// `element tristrips` with one `-1`-separated list.
+    Strips,
+}
+
+/// A PLY file: vertices as `double` (exact) or `float`, with extra normal and colour properties
+/// and an `edge` element to skip.
+pub(crate) fn ply(m: &Mesh, enc: PlyEncoding, faces: PlyFaces, double: bool) -> Vec<u8> {
+    let format = match enc {
+        PlyEncoding::Ascii => "ascii",
+        PlyEncoding::Little => "binary_little_endian",
+        PlyEncoding::Big => "binary_big_endian",
+    };
+    let ft = if double { "double" } else { "float" };
+    let mut h = format!(
+        "ply\nformat {format} 1.0\ncomment test\nobj_info none\nelement vertex {}\n\
+         property {ft} x\nproperty float nx\nproperty {ft} y\nproperty {ft} z\n\
+         property uchar red\nproperty list uchar int junk\n",
+        m.positions.len()
+    );
+    let lists: Vec<Vec<i64>> = match faces {
+        PlyFaces::Faces => {
+            h.push_str(&format!(
+                "element face {}\nproperty list uchar int vertex_indices\n",
+                m.faces.len()
+            ));
+            m.faces
+                .iter()
+                .map(|f| f.iter().map(|&v| i64::from(v)).collect())
+                .collect()
+        }
+        PlyFaces::FacesIndex => {
+            h.push_str(&format!(
+                "element face {}\nproperty uchar flags\nproperty list ushort uint vertex_index\n",
+                m.faces.len()
+            ));
+            m.faces
+                .iter()
+                .map(|f| f.iter().map(|&v| i64::from(v)).collect())
+                .collect()
+        }
+        PlyFaces::Strips => {
+            h.push_str("element tristrips 1\nproperty list int int vertex_indices\n");
+            vec![strips(m)]
+        }
+    };
+    h.push_str("element edge 1\nproperty int vertex1\nproperty int vertex2\nend_header\n");
+    let mut out = h.into_bytes();
+    let put = |out: &mut Vec<u8>, x: f64, size: u8| match (enc, size) {
+        (PlyEncoding::Ascii, _) => write_ascii(out, x),
+        (PlyEncoding::Little, 8) => out.extend_from_slice(&x.to_le_bytes()),
+        (PlyEncoding::Big, 8) => out.extend_from_slice(&x.to_be_bytes()),
+        (PlyEncoding::Little, 4) => out.extend_from_slice(&(x as f32).to_le_bytes()),
+        (PlyEncoding::Big, 4) => out.extend_from_slice(&(x as f32).to_be_bytes()),
+        (PlyEncoding::Little, 1) | (PlyEncoding::Big, 1) => out.push(x as u8),
+        _ => unreachable!(),
+    };
+    let int = |out: &mut Vec<u8>, x: i64, size: u8, enc: PlyEncoding| match (enc, size) {
+        (PlyEncoding::Ascii, _) => out.extend_from_slice(format!("{x} ").as_bytes()),
+        (PlyEncoding::Little, 1) | (PlyEncoding::Big, 1) => out.push(x as u8),
+        (PlyEncoding::Little, 2) => out.extend_from_slice(&(x as u16).to_le_bytes()),
+        (PlyEncoding::Big, 2) => out.extend_from_slice(&(x as u16).to_be_bytes()),
+        (PlyEncoding::Little, _) => out.extend_from_slice(&(x as i32).to_le_bytes()),
+        (PlyEncoding::Big, _) => out.extend_from_slice(&(x as i32).to_be_bytes()),
+    };
+    let cs = if double { 8 } else { 4 };
+    let nl = |out: &mut Vec<u8>| {
+        if let PlyEncoding::Ascii = enc {
+            out.push(b'\n');
+        }
+    };
+    for p in &m.positions {
+        put(&mut out, p.x, cs);
+        put(&mut out, 0.25, 4);
+        put(&mut out, p.y, cs);
+        put(&mut out, p.z, cs);
+        put(&mut out, 200.0, 1);
+        int(&mut out, 2, 1, enc);
+        int(&mut out, 7, 4, enc);
+        int(&mut out, -7, 4, enc);
+        nl(&mut out);
+    }
+    for l in &lists {
+        match faces {
+            PlyFaces::Faces => int(&mut out, l.len() as i64, 1, enc),
+            PlyFaces::FacesIndex => {
+                int(&mut out, 1, 1, enc);
+                int(&mut out, l.len() as i64, 2, enc);
+            }
+            PlyFaces::Strips => int(&mut out, l.len() as i64, 4, enc),
+        }
+        for &v in l {
+            int(&mut out, v, 4, enc);
+        }
+        nl(&mut out);
+    }
+    int(&mut out, 0, 4, enc);
+    int(&mut out, 1, 4, enc);
+    nl(&mut out);
+    out
+}
+
+fn write_ascii(out: &mut Vec<u8>, x: f64) {
+    out.extend_from_slice(format!("{x} ").as_bytes());
+}
+
+/// Encodes the faces as triangle strips separated by `-1`, greedily extending each strip across
+/// shared edges: at strip position k with the last two ids (p, q), the next face must be
+/// (p, q, d) for even k and (q, p, d) for odd k.
+pub(crate) fn strips(m: &Mesh) -> Vec<i64> {
+    let mut by_edge: HashMap<(VertexId, VertexId), Vec<usize>> = HashMap::new();
+    for (i, f) in m.faces.iter().enumerate() {
+        for k in 0..3 {
+            by_edge.entry((f[k], f[(k + 1) % 3])).or_default().push(i);
+        }
+    }
+    let mut used = vec![false; m.faces.len()];
+    let mut out = Vec::new();
+    for start in 0..m.faces.len() {
+        if used[start] {
+            continue;
+        }
+        used[start] = true;
+        let f = m.faces[start];
+        let mut strip = vec![f[0], f[1], f[2]];
+        let mut k = 1;
+        loop {
+            let n = strip.len();
+            let (p, q) = (strip[n - 2], strip[n - 1]);
+            let edge = if k % 2 == 0 { (p, q) } else { (q, p) };
+            let next = by_edge
+                .get(&edge)
+                .and_then(|fs| fs.iter().copied().find(|&i| !used[i]));
+            let Some(i) = next else { break };
+            used[i] = true;
+            let g = m.faces[i];
+            let s = (0..3).find(|&s| (g[s], g[(s + 1) % 3]) == edge).unwrap();
+            strip.push(g[(s + 2) % 3]);
+            k += 1;
+        }
+        if !out.is_empty() {
+            out.push(-1);
+        }
+        out.extend(strip.iter().map(|&v| i64::from(v)));
+    }
+    out
+}
+
+/// Ascii STL with `f64` coordinates written in full.
+pub(crate) fn stl_ascii(m: &Mesh) -> Vec<u8> {
+    let mut s = String::from("solid test\n");
+    for f in &m.faces {
+        s.push_str("  facet normal 0 0 0\n    outer loop\n");
+        for &v in f {
+            let p = m.positions[v as usize];
+            writeln!(s, "      vertex {} {} {}", p.x, p.y, p.z).unwrap();
+        }
+        s.push_str("    endloop\n  endfacet\n");
+    }
+    s.push_str("endsolid test\n");
+    s.into_bytes()
+}
+
+/// Binary STL written by the `stl_io` crate, with a header that starts with "solid " as many
+/// exporters write.
+pub(crate) fn stl_binary(m: &Mesh) -> Vec<u8> {
+    let tris = m.faces.iter().map(|f| stl_io::Triangle {
+        normal: stl_io::Normal::new([0.0, 0.0, 0.0]),
+        vertices: f.map(|v| {
+            let p = m.positions[v as usize];
+            stl_io::Vertex::new([p.x as f32, p.y as f32, p.z as f32])
+        }),
+    });
+    let mut out = Vec::new();
+    stl_io::write_stl(&mut out, tris).unwrap();
+    out[..6].copy_from_slice(b"solid ");
+    out
+}
