@@ -1,0 +1,601 @@
+//! Metric multidimensional scaling to the plane by SMACOF (Scaling by MAjorizing a COmplicated
+//! Function): 2-D points whose Euclidean distances approximate a given distance matrix (the
+//! paper's Eq. 1; here the matrix holds geodesic distances between keypoints).
+//!
+//! For target distances `δ_ij` (K × K, symmetric) and a configuration `X` (K points in ℝ²) with
+//! distances `d_ij(X) = ‖x_i − x_j‖`, the raw stress is
+//! `σ(X) = ½ Σ_{i≠j} (d_ij(X) − δ_ij)² = Σ_{i<j} (d_ij(X) − δ_ij)²`.
+//!
+//! Steps, for each of `starts` random starts (in parallel; they are independent):
+//! 1. Draw `X⁰` uniformly in the square `[0, L]²`, `L = max δ_ij`, from a ChaCha8 generator
+//!    seeded with `seed` on stream `s` (the start's index), so every start has its own stream
+//!    and the result does not depend on the number of threads.
+//! 2. Guttman transform (unweighted, so `V⁺ = I/K` on centred configurations):
+//!    `X ← (1/K)·B(X)·X` with `B_ij = −δ_ij / d_ij(X)` for `i ≠ j` (0 when `d_ij(X) = 0`) and
+//!    `B_ii = −Σ_{j≠i} B_ij`, i.e. row `i` of `B·X` is `(Σ_{j≠i} b_ij)·x_i − Σ_{j≠i} b_ij·x_j`
+//!    with `b_ij = δ_ij / d_ij`. `B` is never materialised: one sweep over the pairs `i < j`
+//!    computes `d_ij` once, accumulates both rows, and also yields `σ(X)`.
+//! 3. Stop when the relative decrease `(σ_old − σ_new) / σ_old` falls below `rel_tol`, when the
+//!    stress is exactly 0, or after `max_iter` transforms. The majorisation guarantees that
+//!    `σ` never increases from one iterate to the next (de Leeuw 1977).
+//! 4. Keep the start with the lowest final stress (ties: the lowest start index).
+//!
+//! Complexity: O(K²) time per iteration (one pass over the upper triangle, branch-free and
+//! laid out for SIMD), O(K) extra memory per start, no allocation inside the iteration loop;
+//! at most `starts · (max_iter + 1)` passes in total.
+//!
+//! The matrix is read from its upper triangle (`i < j`); the lower triangle is only checked to
+//! be the mirror image (relative tolerance 1e-9) and the diagonal is ignored.
+//!
+//! References: I. Borg and P. J. F. Groenen, *Modern Multidimensional Scaling: Theory and
+//! Applications*, 2nd ed., Springer, 2005 (ch. 8); J. de Leeuw, "Applications of convex analysis
+//! to multidimensional scaling", in *Recent Developments in Statistics*, North-Holland, 1977,
+//! pp. 133–145.
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::ComponentsError;
+
+/// Parameters of [`smacof`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct SmacofParams {
+    /// Number of random starts (≥ 1; default 4). More starts make a poor local minimum less
+    /// likely at proportional cost; they run in parallel.
+    pub starts: usize,
+    /// Maximum number of Guttman transforms per start (≥ 1; default 300). Raising it only
+    /// matters when `rel_tol` is not reached first.
+    pub max_iter: usize,
+    /// Stop when the relative stress decrease of one iteration is below this (unitless, ≥ 0;
+    /// default 1e-6). Lowering it iterates longer for a slightly lower stress; 0 runs to
+    /// `max_iter` unless the stress stops decreasing.
+    pub rel_tol: f64,
+    /// Seed of the random starts (default 0). The result is a pure function of the input and
+    /// these parameters, whatever the number of threads.
+    pub seed: u64,
+}
+
+impl Default for SmacofParams {
+    fn default() -> Self {
+        SmacofParams {
+            starts: 4,
+            max_iter: 300,
+            rel_tol: 1e-6,
+            seed: 0,
+        }
+    }
+}
+
+impl SmacofParams {
+    /// Checks that every field is in range.
+    pub fn validate(&self) -> Result<(), ComponentsError> {
+        if self.starts == 0 {
+            return Err(ComponentsError::param(
+                "smacof.starts",
+                self.starts,
+                "use at least 1 random start",
+            ));
+        }
+        if self.max_iter == 0 {
+            return Err(ComponentsError::param(
+                "smacof.max_iter",
+                self.max_iter,
+                "use at least 1 iteration (300 is the default)",
+            ));
+        }
+        if !(self.rel_tol.is_finite() && self.rel_tol >= 0.0) {
+            return Err(ComponentsError::param(
+                "smacof.rel_tol",
+                self.rel_tol,
+                "must be a finite number ≥ 0 (1e-6 is the default)",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// A 2-D embedding computed by [`smacof`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct Embedding {
+    /// One point per row of the distance matrix, in the same order.
+    pub points: Vec<[f64; 2]>,
+    /// Raw stress `Σ_{i<j} (d_ij − δ_ij)²` of `points` (squared distance units).
+    pub stress: f64,
+    /// Number of Guttman transforms that produced `points` in the winning start.
+    pub iterations: usize,
+}
+
+/// Embeds `k` points in the plane so that their distances approximate `distances`, a `k × k`
+/// symmetric row-major matrix of finite non-negative values (see the module docs).
+///
+/// `k = 0` gives no points; `k = 1` the origin; `k = 2` the exact solution
+/// `(−δ/2, 0), (δ/2, 0)`. Errors: the slice is not `k × k`, a value is NaN, infinite or
+/// negative, the matrix is not symmetric, or `params` is invalid.
+pub fn smacof(
+    distances: &[f64],
+    k: usize,
+    params: &SmacofParams,
+) -> Result<Embedding, ComponentsError> {
+    params.validate()?;
+    check_matrix(distances, k)?;
+    match k {
+        0 => {
+            return Ok(Embedding {
+                points: Vec::new(),
+                stress: 0.0,
+                iterations: 0,
+            });
+        }
+        1 => {
+            return Ok(Embedding {
+                points: vec![[0.0, 0.0]],
+                stress: 0.0,
+                iterations: 0,
+            });
+        }
+        2 => {
+            let h = distances[1] / 2.0;
+            return Ok(Embedding {
+                points: vec![[-h, 0.0], [h, 0.0]],
+                stress: 0.0,
+                iterations: 0,
+            });
+        }
+        _ => {}
+    }
+    let runs: Vec<Embedding> = (0..params.starts)
+        .into_par_iter()
+        .map(|s| run_start(distances, k, params, s as u64, |_| {}))
+        .collect();
+    // lowest stress, ties to the lowest start index (min_by keeps the first of equal elements)
+    let best = runs
+        .into_iter()
+        .min_by(|a, b| a.stress.total_cmp(&b.stress))
+        .ok_or(ComponentsError::Empty {
+            what: "set of SMACOF starts",
+        })?;
+    Ok(best)
+}
+
+fn check_matrix(d: &[f64], k: usize) -> Result<(), ComponentsError> {
+    let expected = k.saturating_mul(k);
+    if d.len() != expected {
+        return Err(ComponentsError::MatrixSize {
+            len: d.len(),
+            k,
+            expected,
+        });
+    }
+    for i in 0..k {
+        for j in 0..k {
+            let v = d[i * k + j];
+            if !(v.is_finite() && (v >= 0.0 || i == j)) {
+                return Err(ComponentsError::BadDistance { i, j, value: v });
+            }
+        }
+    }
+    for i in 0..k {
+        for j in i + 1..k {
+            let (a, b) = (d[i * k + j], d[j * k + i]);
+            if (a - b).abs() > 1e-9 * a.max(b) {
+                return Err(ComponentsError::Asymmetric {
+                    i,
+                    j,
+                    dij: a,
+                    dji: b,
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Independent accumulators of the row sums (lets the compiler use SIMD for them without
+/// reassociating floating-point sums, which it may not do on its own).
+const LANES: usize = 4;
+
+/// Buffers of one start, allocated once.
+struct Work {
+    x: Vec<f64>,
+    y: Vec<f64>,
+    nx: Vec<f64>,
+    ny: Vec<f64>,
+    s: Vec<f64>,
+    /// Scratch row: `b_ij` for the current `i`.
+    b: Vec<f64>,
+    /// Scratch row: `(d_ij − δ_ij)²` for the current `i`.
+    r2: Vec<f64>,
+}
+
+/// Runs one start (index `start`) to convergence; `on_stress` sees the stress of every iterate
+/// in order (for tests).
+fn run_start(
+    delta: &[f64],
+    k: usize,
+    params: &SmacofParams,
+    start: u64,
+    mut on_stress: impl FnMut(f64),
+) -> Embedding {
+    let mut rng = ChaCha8Rng::seed_from_u64(params.seed);
+    rng.set_stream(start);
+    let scale = upper_max(delta, k);
+    let mut w = Work {
+        x: Vec::with_capacity(k),
+        y: Vec::with_capacity(k),
+        nx: vec![0.0; k],
+        ny: vec![0.0; k],
+        s: vec![0.0; k],
+        b: vec![0.0; k],
+        r2: vec![0.0; k],
+    };
+    for _ in 0..k {
+        w.x.push(rng.random::<f64>() * scale);
+        w.y.push(rng.random::<f64>() * scale);
+    }
+    let mut prev: Option<f64> = None;
+    let mut iterations = 0;
+    let stress = loop {
+        let stress = guttman(delta, k, &mut w);
+        on_stress(stress);
+        if stress == 0.0 || iterations == params.max_iter {
+            break stress;
+        }
+        if let Some(p) = prev
+            && (p - stress) < params.rel_tol * p
+        {
+            break stress;
+        }
+        std::mem::swap(&mut w.x, &mut w.nx);
+        std::mem::swap(&mut w.y, &mut w.ny);
+        iterations += 1;
+        prev = Some(stress);
+    };
+    Embedding {
+        points: w.x.iter().zip(&w.y).map(|(&x, &y)| [x, y]).collect(),
+        stress,
+        iterations,
+    }
+}
+
+fn upper_max(delta: &[f64], k: usize) -> f64 {
+    let mut m: f64 = 0.0;
+    for i in 0..k {
+        for &v in &delta[i * k + i + 1..(i + 1) * k] {
+            m = m.max(v);
+        }
+    }
+    m
+}
+
+/// `q` when `d > 0`, else 0: a bit mask rather than a branch, so the loop vectorises
+/// (`q = δ/d` is inf or NaN when `d = 0`, and is discarded then).
+#[inline(always)]
+fn nonzero_or_zero(q: f64, d: f64) -> f64 {
+    let mask = u64::from(d > 0.0).wrapping_neg();
+    f64::from_bits(q.to_bits() & mask)
+}
+
+/// One Guttman transform: writes `(1/K)·B(X)·X` into `w.nx, w.ny` and returns `σ(X)`.
+///
+/// Per row `i`, a first element-wise loop over `j > i` (which the compiler vectorises: no
+/// cross-iteration sums) computes `b_ij` and `(d_ij − δ_ij)²` into scratch rows and adds row
+/// `i`'s contributions to rows `j`; a second loop sums the scratch rows over `LANES`
+/// independent accumulators.
+fn guttman(delta: &[f64], k: usize, w: &mut Work) -> f64 {
+    let Work {
+        x,
+        y,
+        nx,
+        ny,
+        s,
+        b,
+        r2,
+    } = w;
+    // nx, ny accumulate Σ_j b_ij x_j, s accumulates Σ_j b_ij
+    nx.fill(0.0);
+    ny.fill(0.0);
+    s.fill(0.0);
+    let mut stress = 0.0;
+    for i in 0..k {
+        let (xi, yi) = (x[i], y[i]);
+        let m = k - i - 1;
+        let row = &delta[i * k + i + 1..(i + 1) * k];
+        let (xs, ys) = (&x[i + 1..], &y[i + 1..]);
+        let (nx_head, tx) = nx.split_at_mut(i + 1);
+        let (ny_head, ty) = ny.split_at_mut(i + 1);
+        let (s_head, ts) = s.split_at_mut(i + 1);
+        let (b, r2) = (&mut b[..m], &mut r2[..m]);
+        for (((((((&xj, &yj), &dj), bj), rj), txj), tyj), tsj) in xs
+            .iter()
+            .zip(ys)
+            .zip(row)
+            .zip(b.iter_mut())
+            .zip(r2.iter_mut())
+            .zip(tx.iter_mut())
+            .zip(ty.iter_mut())
+            .zip(ts.iter_mut())
+        {
+            let (dx, dy) = (xi - xj, yi - yj);
+            let d = (dx * dx + dy * dy).sqrt();
+            let r = d - dj;
+            *rj = r * r;
+            let bij = nonzero_or_zero(dj / d, d);
+            *bj = bij;
+            *txj += bij * xi;
+            *tyj += bij * yi;
+            *tsj += bij;
+        }
+        let mut ax = [0.0; LANES];
+        let mut ay = [0.0; LANES];
+        let mut as_ = [0.0; LANES];
+        let mut st = [0.0; LANES];
+        let full = m / LANES * LANES;
+        for (((bc, rc), xc), yc) in b[..full]
+            .chunks_exact(LANES)
+            .zip(r2[..full].chunks_exact(LANES))
+            .zip(xs[..full].chunks_exact(LANES))
+            .zip(ys[..full].chunks_exact(LANES))
+        {
+            for l in 0..LANES {
+                ax[l] += bc[l] * xc[l];
+                ay[l] += bc[l] * yc[l];
+                as_[l] += bc[l];
+                st[l] += rc[l];
+            }
+        }
+        let (mut sx, mut sy, mut ss, mut sst) = (0.0, 0.0, 0.0, 0.0);
+        for j in full..m {
+            sx += b[j] * xs[j];
+            sy += b[j] * ys[j];
+            ss += b[j];
+            sst += r2[j];
+        }
+        for l in 0..LANES {
+            sx += ax[l];
+            sy += ay[l];
+            ss += as_[l];
+            sst += st[l];
+        }
+        nx_head[i] += sx;
+        ny_head[i] += sy;
+        s_head[i] += ss;
+        stress += sst;
+    }
+    let inv_n = 1.0 / k as f64;
+    for i in 0..k {
+        nx[i] = (s[i] * x[i] - nx[i]) * inv_n;
+        ny[i] = (s[i] * y[i] - ny[i]) * inv_n;
+    }
+    stress
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+    use rand::Rng;
+
+    fn random_points(n: usize, seed: u64) -> Vec<[f64; 2]> {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        (0..n)
+            .map(|_| [rng.random::<f64>() * 10.0, rng.random::<f64>() * 10.0])
+            .collect()
+    }
+
+    fn dist_matrix(p: &[[f64; 2]]) -> Vec<f64> {
+        let k = p.len();
+        let mut d = vec![0.0; k * k];
+        for i in 0..k {
+            for j in 0..k {
+                d[i * k + j] = ((p[i][0] - p[j][0]).powi(2) + (p[i][1] - p[j][1]).powi(2)).sqrt();
+            }
+        }
+        d
+    }
+
+    /// Points on a unit sphere and their great-circle distances: a geodesic-like matrix that is
+    /// not exactly embeddable in the plane.
+    pub(crate) fn sphere_matrix(k: usize, seed: u64) -> Vec<f64> {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let pts: Vec<[f64; 3]> = (0..k)
+            .map(|_| {
+                loop {
+                    let v = [
+                        rng.random::<f64>() * 2.0 - 1.0,
+                        rng.random::<f64>() * 2.0 - 1.0,
+                        rng.random::<f64>() * 2.0 - 1.0,
+                    ];
+                    let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+                    if n > 0.1 && n <= 1.0 {
+                        break [v[0] / n, v[1] / n, v[2] / n];
+                    }
+                }
+            })
+            .collect();
+        let mut d = vec![0.0; k * k];
+        for i in 0..k {
+            for j in 0..k {
+                if i != j {
+                    let c = pts[i][0] * pts[j][0] + pts[i][1] * pts[j][1] + pts[i][2] * pts[j][2];
+                    d[i * k + j] = c.clamp(-1.0, 1.0).acos();
+                }
+            }
+        }
+        d
+    }
+
+    fn sum_sq_upper(d: &[f64], k: usize) -> f64 {
+        let mut s = 0.0;
+        for i in 0..k {
+            for j in i + 1..k {
+                s += d[i * k + j] * d[i * k + j];
+            }
+        }
+        s
+    }
+
+    #[test]
+    fn recovers_an_exactly_embeddable_planar_set() {
+        let p = random_points(30, 7);
+        let d = dist_matrix(&p);
+        let e = smacof(&d, 30, &SmacofParams::default()).unwrap();
+        let normalised = e.stress / sum_sq_upper(&d, 30);
+        assert!(normalised < 1e-6, "normalised stress {normalised}");
+        // every pairwise distance of the embedding matches the input (rigid motion only)
+        let got = dist_matrix(&e.points);
+        let max_err = d
+            .iter()
+            .zip(&got)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(max_err < 1e-2, "max distance error {max_err}");
+        // the reported stress is the stress of the returned points
+        let recomputed: f64 = (0..30)
+            .flat_map(|i| (i + 1..30).map(move |j| (i, j)))
+            .map(|(i, j)| (got[i * 30 + j] - d[i * 30 + j]).powi(2))
+            .sum();
+        assert!((recomputed - e.stress).abs() <= 1e-9 * (1.0 + e.stress));
+    }
+
+    #[test]
+    fn deterministic_for_a_seed_whatever_the_thread_count() {
+        let d = sphere_matrix(60, 3);
+        let params = SmacofParams {
+            seed: 42,
+            ..Default::default()
+        };
+        let a = smacof(&d, 60, &params).unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap();
+        let b = pool.install(|| smacof(&d, 60, &params)).unwrap();
+        assert_eq!(a, b);
+        let c = smacof(
+            &d,
+            60,
+            &SmacofParams {
+                seed: 43,
+                ..params.clone()
+            },
+        )
+        .unwrap();
+        assert_ne!(a.points, c.points);
+    }
+
+    #[test]
+    fn keeps_the_lowest_stress_start() {
+        let d = sphere_matrix(40, 5);
+        let params = SmacofParams {
+            starts: 6,
+            seed: 9,
+            ..Default::default()
+        };
+        let best = smacof(&d, 40, &params).unwrap();
+        let each: Vec<f64> = (0..6)
+            .map(|s| run_start(&d, 40, &params, s, |_| {}).stress)
+            .collect();
+        let min = each.iter().cloned().fold(f64::INFINITY, f64::min);
+        assert_eq!(best.stress, min);
+    }
+
+    #[test]
+    fn small_and_degenerate_inputs() {
+        let p = SmacofParams::default();
+        assert_eq!(smacof(&[], 0, &p).unwrap().points.len(), 0);
+        assert_eq!(smacof(&[0.0], 1, &p).unwrap().points, vec![[0.0, 0.0]]);
+        let e = smacof(&[0.0, 3.0, 3.0, 0.0], 2, &p).unwrap();
+        assert_eq!(e.points, vec![[-1.5, 0.0], [1.5, 0.0]]);
+        assert_eq!(e.stress, 0.0);
+        // all distances zero: every point collapses to one place
+        let e = smacof(&[0.0; 9], 3, &p).unwrap();
+        assert_eq!(e.stress, 0.0);
+        // three collinear points: SMACOF approaches a 1-D solution in the plane only linearly,
+        // so the relative-decrease rule stops near (not at) zero stress (Σδ² = 6)
+        let e = smacof(&[0.0, 1.0, 2.0, 1.0, 0.0, 1.0, 2.0, 1.0, 0.0], 3, &p).unwrap();
+        assert!(e.stress / 6.0 < 1e-4, "{}", e.stress);
+    }
+
+    #[test]
+    fn rejects_bad_input() {
+        let p = SmacofParams::default();
+        assert!(matches!(
+            smacof(&[0.0; 5], 2, &p),
+            Err(ComponentsError::MatrixSize { .. })
+        ));
+        assert!(matches!(
+            smacof(&[0.0, f64::INFINITY, f64::INFINITY, 0.0], 2, &p),
+            Err(ComponentsError::BadDistance { i: 0, j: 1, .. })
+        ));
+        assert!(matches!(
+            smacof(&[0.0, -1.0, -1.0, 0.0], 2, &p),
+            Err(ComponentsError::BadDistance { .. })
+        ));
+        assert!(matches!(
+            smacof(&[0.0, 1.0, 2.0, 0.0], 2, &p),
+            Err(ComponentsError::Asymmetric { i: 0, j: 1, .. })
+        ));
+        let bad = SmacofParams {
+            starts: 0,
+            ..Default::default()
+        };
+        assert!(matches!(
+            smacof(&[0.0], 1, &bad),
+            Err(ComponentsError::InvalidParameter { .. })
+        ));
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(48))]
+        /// Majorisation: the stress of successive iterates never increases.
+        #[test]
+        fn stress_never_increases(k in 3usize..40, seed in any::<u64>(), start in 0u64..4) {
+            let d = sphere_matrix(k, seed);
+            let params = SmacofParams { seed, rel_tol: 0.0, max_iter: 60, ..Default::default() };
+            let mut hist = Vec::new();
+            run_start(&d, k, &params, start, |s| hist.push(s));
+            for w in hist.windows(2) {
+                prop_assert!(w[1] <= w[0] * (1.0 + 1e-12) + 1e-15, "{} -> {}", w[0], w[1]);
+            }
+        }
+    }
+
+    /// Timing for the report: `cargo test --release -p keycomp-components smacof_timing
+    /// -- --ignored --nocapture`.
+    #[test]
+    #[ignore]
+    fn smacof_timing() {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap();
+        for k in [500usize, 1400] {
+            let d = sphere_matrix(k, 1);
+            let t = std::time::Instant::now();
+            let e = pool
+                .install(|| smacof(&d, k, &SmacofParams::default()))
+                .unwrap();
+            let el = t.elapsed();
+            println!(
+                "K = {k}: {:.3} s for 4 starts on 2 threads; winning start {} iterations, \
+                 normalised stress {:.4e}",
+                el.as_secs_f64(),
+                e.iterations,
+                e.stress / sum_sq_upper(&d, k)
+            );
+            let t = std::time::Instant::now();
+            let params = SmacofParams {
+                starts: 1,
+                rel_tol: 0.0,
+                max_iter: 100,
+                ..Default::default()
+            };
+            let _ = smacof(&d, k, &params).unwrap();
+            let per = t.elapsed().as_secs_f64() / 101.0;
+            println!("K = {k}: {:.3} ms per iteration", per * 1e3);
+        }
+    }
+}
