@@ -171,6 +171,28 @@ pub fn protrusion_sphere(subdivisions: u32, height: f64, width: f64) -> Mesh {
     m
 }
 
+/// A [`protrusion_sphere`] (height 0.8, width 0.35) whose protrusions carry a fine ripple
+/// `0.03 · w · sin(60x)·sin(60y)·sin(60z)` (w = the protrusion's bump weight, 1 at a tip, ≈0 on
+/// the body): many small curvature extrema concentrated on the protrusions and none on the
+/// smooth body, the situation key-components are made for (Sipiran & Bustos 2013, Fig. 1).
+/// With `subdivisions = 6` (40,962 vertices) the paper's KC-1 finds one key-component per
+/// protrusion.
+pub fn textured_protrusion_sphere(subdivisions: u32) -> Mesh {
+    const WIDTH: f64 = 0.35;
+    let mut m = protrusion_sphere(subdivisions, 0.8, WIDTH);
+    let dirs = protrusion_directions();
+    for p in &mut m.positions {
+        let u = p.coords.normalize();
+        let w: f64 = dirs
+            .iter()
+            .map(|d| (-(u.dot(d).clamp(-1.0, 1.0).acos() / WIDTH).powi(2)).exp())
+            .sum();
+        let ripple = (60.0 * u.x).sin() * (60.0 * u.y).sin() * (60.0 * u.z).sin();
+        *p = Point3::from(u * (p.coords.norm() + 0.03 * w * ripple));
+    }
+    m
+}
+
 /// The vertex of a [`protrusion_sphere`] closest to each protrusion direction (the tips).
 pub fn protrusion_tips(mesh: &Mesh) -> Vec<VertexId> {
     protrusion_directions()
