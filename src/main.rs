@@ -1,1 +1,57 @@
-fn main() {}
+//! `keycomp`: key-component detection, description and partial retrieval for 3D meshes, after
+//! I. Sipiran and B. Bustos, "Key-components: detection of salient regions on 3D meshes",
+//! The Visual Computer 29, 2013.
+//!
+//! Subcommands are verbs; `--json` gives machine-readable output on stdout. Exit codes: 0 ok,
+//! 1 no result, 2 error (bad input, bad arguments). A closed stdout pipe exits 0.
+
+mod colors;
+mod demo;
+mod detect;
+mod keypoints;
+mod output;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+/// Key-components of 3D meshes: detect salient regions, index shapes, query by example.
+#[derive(Debug, Parser)]
+#[command(name = "keycomp", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Harris 3D keypoints of a mesh (Sipiran & Bustos 2011), best first.
+    #[command(after_help = keypoints::EXAMPLES)]
+    Keypoints(keypoints::Args),
+    /// Key-components of a mesh (Sipiran & Bustos 2013): Harris 3D, geodesics, SMACOF,
+    /// adaptive clustering, region growing.
+    #[command(after_help = detect::EXAMPLES)]
+    Detect(detect::Args),
+    /// Run the built-in demo on shapes generated in code (no files needed).
+    Demo(demo::Args),
+}
+
+fn main() -> ExitCode {
+    // clap exits 2 on bad arguments by itself
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Keypoints(args) => keypoints::run(args),
+        Command::Detect(args) => detect::run(args),
+        Command::Demo(args) => demo::run(args),
+    };
+    match result {
+        Ok(code) => code,
+        Err(e) => {
+            if output::is_broken_pipe(&e) {
+                return ExitCode::SUCCESS;
+            }
+            eprintln!("error: {e:#}");
+            ExitCode::from(2)
+        }
+    }
+}

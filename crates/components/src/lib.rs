@@ -19,6 +19,7 @@ pub mod cluster;
 mod error;
 pub mod grow;
 pub mod params;
+pub mod pipeline;
 pub mod smacof;
 pub mod sphere;
 
@@ -26,5 +27,6 @@ pub use cluster::{Cluster, ClusterParams, Clustering, adaptive_clustering};
 pub use error::ComponentsError;
 pub use grow::{Component, RegionGrower, geodesic_center};
 pub use params::{ComponentParams, Preset};
+pub use pipeline::{DetectError, DetectParams, Detection, KeyComponent, Timings, detect};
 pub use smacof::{Embedding, SmacofParams, smacof};
 pub use sphere::{Sphere, min_enclosing_sphere};

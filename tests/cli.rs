@@ -1,0 +1,312 @@
+//! End-to-end tests of the `keycomp` binary: real processes, real files, real output.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+
+use keycomp_mesh::{read_mesh, synth, write_off};
+use serde_json::Value;
+
+fn keycomp(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_keycomp"))
+        .args(args)
+        .output()
+        .expect("the keycomp binary runs")
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn shared_data() -> Option<PathBuf> {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data");
+    if p.is_dir() {
+        Some(p)
+    } else {
+        eprintln!("skipping: ../shared/data not found");
+        None
+    }
+}
+
+/// Writes a synthetic protrusion shape as OFF in `dir` and returns its path.
+fn protrusion_off(dir: &Path) -> PathBuf {
+    let path = dir.join("protrusions.off");
+    write_off(&synth::protrusion_sphere(4, 0.8, 0.25), &path).expect("write OFF");
+    path
+}
+
+#[test]
+fn demo_runs_with_no_files_and_finds_the_protrusions() {
+    let o = keycomp(&["demo"]);
+    assert!(o.status.success(), "stderr: {}", stderr(&o));
+    let s = stdout(&o);
+    assert!(s.contains("KC-1"), "{s}");
+    assert!(s.contains("6 of 6 protrusions found"), "{s}");
+}
+
+/// Writes the demo's textured protrusion shape as OFF in `dir` and returns its path.
+fn textured_off(dir: &Path) -> PathBuf {
+    let path = dir.join("textured.off");
+    write_off(&synth::textured_protrusion_sphere(6), &path).expect("write OFF");
+    path
+}
+
+fn without_timings(mut v: Value) -> Value {
+    v.as_object_mut().expect("object").remove("timings_ms");
+    v
+}
+
+#[test]
+fn detect_json_has_the_documented_shape_and_is_deterministic() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = textured_off(dir.path());
+    let p = path.to_str().expect("utf8");
+    let o = keycomp(&["detect", p, "--json", "--seed", "7"]);
+    assert!(o.status.success(), "stderr: {}", stderr(&o));
+    let v: Value = serde_json::from_slice(&o.stdout).expect("valid JSON");
+    for key in [
+        "mesh",
+        "vertices",
+        "faces",
+        "area",
+        "preset",
+        "params",
+        "keypoints",
+        "components",
+        "timings_ms",
+    ] {
+        assert!(v.get(key).is_some(), "missing {key}");
+    }
+    for key in [
+        "read", "harris", "geodesic", "mds", "cluster", "extract", "total",
+    ] {
+        assert!(v["timings_ms"][key].is_number(), "missing timing {key}");
+    }
+    assert_eq!(v["preset"], "KC-1");
+    assert_eq!(v["params"]["components"]["smacof"]["seed"], 7);
+    let n = v["vertices"].as_u64().expect("vertices");
+    let comps = v["components"].as_array().expect("components");
+    assert_eq!(comps.len(), 6, "one key-component per protrusion");
+    for c in comps {
+        let ids = |k: &str| -> Vec<u64> {
+            c[k].as_array()
+                .expect("array")
+                .iter()
+                .map(|x| x.as_u64().expect("id"))
+                .collect()
+        };
+        let (kps, verts) = (ids("keypoints"), ids("vertices"));
+        assert!(kps.iter().all(|k| verts.contains(k)), "keypoints inside");
+        assert!(verts.iter().all(|&x| x < n));
+        assert!(verts.contains(&c["center"].as_u64().expect("center")));
+        assert_eq!(c["sphere"]["center"].as_array().expect("xyz").len(), 3);
+        assert!(c["sphere"]["radius"].as_f64().expect("radius") > 0.0);
+        let a = c["area"].as_f64().expect("area");
+        assert!(a > 0.0 && a < 1.0);
+        assert!(!ids("faces").is_empty());
+    }
+    // same input and seed: byte-identical JSON apart from the timings
+    let again = keycomp(&["detect", p, "--json", "--seed", "7"]);
+    let w: Value = serde_json::from_slice(&again.stdout).expect("valid JSON");
+    assert_eq!(
+        serde_json::to_string(&without_timings(v)).expect("json"),
+        serde_json::to_string(&without_timings(w)).expect("json")
+    );
+}
+
+#[test]
+fn detect_ply_and_human_output() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = textured_off(dir.path());
+    let out = dir.path().join("components.ply");
+    let o = keycomp(&[
+        "detect",
+        path.to_str().expect("utf8"),
+        "--preset",
+        "kc2",
+        "--ply",
+        out.to_str().expect("utf8"),
+    ]);
+    assert!(o.status.success(), "stderr: {}", stderr(&o));
+    let s = stdout(&o);
+    assert!(s.contains("preset KC-2"), "{s}");
+    assert!(s.contains("key-components:"), "{s}");
+    let back = read_mesh(&out).expect("PLY reads back").mesh;
+    assert_eq!(back.num_vertices(), 40962);
+}
+
+#[test]
+fn detect_rejects_bad_parameters_with_exit_2() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = protrusion_off(dir.path());
+    let p = path.to_str().expect("utf8");
+    for args in [
+        vec!["detect", p, "--preset", "kc9"],
+        vec!["detect", p, "--r", "0.5", "--t", "0.1"],
+        vec!["detect", p, "--sigma", "-1"],
+        vec!["detect", p, "--fraction", "0"],
+    ] {
+        let o = keycomp(&args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert!(!stderr(&o).is_empty());
+    }
+}
+
+#[test]
+fn keypoints_json_has_the_documented_shape() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = protrusion_off(dir.path());
+    let mesh = read_mesh(&path).expect("read back").mesh;
+    let o = keycomp(&[
+        "keypoints",
+        path.to_str().expect("utf8"),
+        "--count",
+        "12",
+        "--json",
+    ]);
+    assert!(o.status.success(), "stderr: {}", stderr(&o));
+    let v: Value = serde_json::from_slice(&o.stdout).expect("valid JSON");
+    assert_eq!(v["mesh"], path.to_str().expect("utf8"));
+    assert_eq!(v["vertices"], mesh.num_vertices());
+    assert_eq!(v["faces"], mesh.num_faces());
+    let response = v["response"].as_array().expect("response array");
+    assert_eq!(response.len(), mesh.num_vertices());
+    let kps: Vec<usize> = v["keypoints"]
+        .as_array()
+        .expect("keypoints array")
+        .iter()
+        .map(|k| k.as_u64().expect("vertex id") as usize)
+        .collect();
+    assert_eq!(kps.len(), 12);
+    // best first: responses do not increase along the list
+    let r: Vec<f64> = kps
+        .iter()
+        .map(|&k| response[k].as_f64().expect("keypoint has a response"))
+        .collect();
+    assert!(r.windows(2).all(|w| w[0] >= w[1]), "{r:?}");
+    // the strongest keypoints are on the protrusions, not on the unit sphere
+    for &k in &kps[..6] {
+        assert!(
+            mesh.positions[k].coords.norm() > 1.2,
+            "keypoint {k} is on the body"
+        );
+    }
+}
+
+#[test]
+fn keypoints_ply_output_reads_back() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = protrusion_off(dir.path());
+    let out = dir.path().join("out.ply");
+    let o = keycomp(&[
+        "keypoints",
+        path.to_str().expect("utf8"),
+        "--ply",
+        out.to_str().expect("utf8"),
+    ]);
+    assert!(o.status.success(), "stderr: {}", stderr(&o));
+    let a = read_mesh(&path).expect("input").mesh;
+    let b = read_mesh(&out)
+        .expect("PLY written by keycomp reads back")
+        .mesh;
+    assert_eq!(a.faces, b.faces);
+    assert_eq!(a.num_vertices(), b.num_vertices());
+}
+
+#[test]
+fn missing_file_is_a_clear_error_with_exit_2() {
+    let o = keycomp(&["keypoints", "/no/such/mesh.off"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("/no/such/mesh.off"), "{}", stderr(&o));
+    assert!(o.stdout.is_empty());
+}
+
+#[test]
+fn malformed_files_are_clear_errors_with_exit_2() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let cases: &[(&str, &str, &str)] = &[
+        ("empty.off", "", "empty"),
+        ("short.off", "OFF\n4 2 0\n0 0 0\n1 0 0\n", "truncated"),
+        (
+            "range.off",
+            "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n",
+            "out of range",
+        ),
+        (
+            "nan.off",
+            "OFF\n3 1 0\n0 0 0\nnan 0 0\n0 1 0\n3 0 1 2\n",
+            "NaN",
+        ),
+        ("mesh.xyz", "1 2 3\n", "unknown mesh format"),
+    ];
+    for (name, text, expect) in cases {
+        let p = dir.path().join(name);
+        std::fs::write(&p, text).expect("write case");
+        let o = keycomp(&["keypoints", p.to_str().expect("utf8")]);
+        assert_eq!(o.status.code(), Some(2), "{name}: {}", stderr(&o));
+        let e = stderr(&o);
+        assert!(
+            e.contains(name),
+            "{name}: error does not name the file: {e}"
+        );
+        assert!(
+            e.to_lowercase().contains(&expect.to_lowercase()),
+            "{name}: expected '{expect}' in: {e}"
+        );
+    }
+}
+
+#[test]
+fn conflicting_options_are_rejected_with_exit_2() {
+    let o = keycomp(&["keypoints", "x.off", "--fraction", "0.1", "--count", "5"]);
+    assert_eq!(o.status.code(), Some(2));
+    let o = keycomp(&["keypoints", "x.off", "--rings", "2", "--radius", "0.01"]);
+    assert_eq!(o.status.code(), Some(2));
+}
+
+#[test]
+fn closed_stdout_pipe_exits_cleanly() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = protrusion_off(dir.path());
+    let mut child = Command::new(env!("CARGO_BIN_EXE_keycomp"))
+        .args(["keypoints", path.to_str().expect("utf8"), "--json"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn");
+    drop(child.stdout.take()); // close the read end before anything is written
+    let o = child.wait_with_output().expect("wait");
+    assert_eq!(o.status.code(), Some(0), "stderr: {}", stderr(&o));
+}
+
+#[test]
+fn keypoints_on_real_meshes() {
+    let Some(data) = shared_data() else { return };
+    let o = keycomp(&[
+        "detect",
+        data.join("tosca/cat0.off").to_str().expect("utf8"),
+        "--json",
+    ]);
+    assert!(o.status.success(), "cat0: {}", stderr(&o));
+    let v: Value = serde_json::from_slice(&o.stdout).expect("valid JSON");
+    let comps = v["components"].as_array().expect("components").len();
+    assert!(comps >= 3, "cat0: {comps} key-components");
+    println!("cat0: {comps} key-components");
+    for name in ["models/bunny.off", "models/spot.obj", "tosca/wolf0.off"] {
+        let p = data.join(name);
+        let o = keycomp(&["keypoints", p.to_str().expect("utf8"), "--json"]);
+        assert!(o.status.success(), "{name}: {}", stderr(&o));
+        let v: Value = serde_json::from_slice(&o.stdout).expect("valid JSON");
+        let n = v["vertices"].as_u64().expect("vertices") as f64;
+        let k = v["keypoints"].as_array().expect("keypoints").len() as f64;
+        // 1 % of the vertices by default (fewer only if there are not enough local maxima)
+        assert!(
+            k <= (0.01 * n).round() && k >= 0.5 * 0.01 * n,
+            "{name}: {k} of {n}"
+        );
+        println!("{name}: {k} keypoints of {n} vertices");
+    }
+}
