@@ -1,0 +1,21 @@
+//! SHREC'10-style robustness benchmark for keycomp: mesh transformations with a ground-truth
+//! vertex correspondence ([`transform`](mod@transform)), and the overlap / repeatability measures of Sipiran &
+//! Bustos (2013), Section 4.2 ([`evaluate`]).
+//!
+//! A benchmark run takes a null shape X, produces transformed shapes Y = T(X) of eight kinds at
+//! five strengths each (the SHREC'10 feature detection benchmark, Bronstein et al., 3DOR 2010;
+//! isometry comes from real pose data instead), detects components on X and on every Y, carries
+//! the components of Y back to X through the correspondence ([`evaluate::Pullback`]) and scores
+//! each one by its best area overlap with a component of X ([`evaluate::best_overlaps`]).
+
+mod error;
+pub mod evaluate;
+mod graph;
+pub mod transform;
+
+pub use error::BenchError;
+pub use evaluate::{
+    CumulativeTable, Pullback, Record, TableRow, best_overlaps, cumulative_table,
+    mean_overlap_table, overlap, repeatability, repeatability_curve, repeatability_table,
+};
+pub use transform::{Kind, MapFile, Transformed, read_map, transform, write_map};
