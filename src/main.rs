@@ -5,6 +5,7 @@
 //! Subcommands are verbs; `--json` gives machine-readable output on stdout. Exit codes: 0 ok,
 //! 1 no result, 2 error (bad input, bad arguments). A closed stdout pipe exits 0.
 
+mod bench;
 mod colors;
 mod demo;
 mod detect;
@@ -32,6 +33,9 @@ enum Command {
     /// adaptive clustering, region growing.
     #[command(after_help = detect::EXAMPLES)]
     Detect(detect::Args),
+    /// Benchmarks that produce the tables in BENCHMARKS.md.
+    #[command(subcommand)]
+    Bench(bench::BenchCommand),
     /// Run the built-in demo on shapes generated in code (no files needed).
     Demo(demo::Args),
 }
@@ -43,6 +47,7 @@ fn main() -> ExitCode {
         Command::Keypoints(args) => keypoints::run(args),
         Command::Detect(args) => detect::run(args),
         Command::Demo(args) => demo::run(args),
+        Command::Bench(cmd) => bench::run(cmd),
     };
     match result {
         Ok(code) => code,
