@@ -166,6 +166,25 @@ fn tosca_cat_poses_repeat_cat0_components() {
     let areas = geometry::vertex_areas(&null);
     let base = detect(&null, &params).expect("detect cat0");
     println!("cat0: {} components", base.components.len());
+    // on a real mesh too: every component holds its cluster's keypoints and is one piece
+    let topo = Topology::new(&null);
+    for c in &base.components {
+        assert!(
+            c.missed_keypoints.is_empty(),
+            "cat0 component {} missed keypoints",
+            c.id
+        );
+        assert!(
+            c.keypoints
+                .iter()
+                .all(|k| c.vertices.binary_search(k).is_ok())
+        );
+        assert!(
+            is_connected(&topo, &c.vertices),
+            "cat0 component {} in pieces",
+            c.id
+        );
+    }
     let mut all = Vec::new();
     for pose in 1..=10 {
         let m = read_mesh(&data.join(format!("tosca/cat{pose}.off")))
