@@ -1,0 +1,249 @@
+//! The container every index file shares: payload, then a fixed 32-byte footer; atomic writes.
+//!
+//! Footer (last 32 bytes of every file, all integers little endian; see `FORMAT.md`):
+//!
+//! | offset from footer start | size | field |
+//! |---|---|---|
+//! | 0  | 8 | payload length in bytes (= file length − 32) |
+//! | 8  | 4 | file kind: 1 = manifest, 2 = segment |
+//! | 12 | 4 | format version |
+//! | 16 | 8 | checksum: XXH3-64 (seed 0) of every byte before this field |
+//! | 24 | 8 | magic `KCIDXEND` |
+//!
+//! The footer layout, the checksum algorithm and the magic are frozen across format versions,
+//! so any keycomp can tell a damaged file ("corrupt") from a file of another version
+//! ("incompatible"). Checks run in this order: length ≥ 32, magic, checksum, payload length,
+//! version, kind. A bit flip anywhere (payload or footer) therefore fails the checksum (or the
+//! magic), never the version check.
+//!
+//! Atomic write ([`write_atomic`]): write to `NAME.tmp-PID-N` in the same directory, `sync_all`,
+//! rename over `NAME`, fsync the directory. A reader opening `NAME` sees the old file or the
+//! new one, never a partial one; a crash leaves at most a stray temp file that no manifest
+//! references.
+
+use std::fs::{self, File, OpenOptions};
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use xxhash_rust::xxh3::xxh3_64;
+
+use crate::error::{CorruptKind, IndexError, Result};
+
+/// Size of the footer in bytes.
+pub const FOOTER_LEN: usize = 32;
+/// Magic number closing every index file.
+pub const MAGIC: [u8; 8] = *b"KCIDXEND";
+/// Footer kind code of the manifest.
+pub const KIND_MANIFEST: u32 = 1;
+/// Footer kind code of a segment.
+pub const KIND_SEGMENT: u32 = 2;
+/// Infix of temporary files (`NAME.tmp-PID-N`); any file containing it is garbage unless a
+/// write is in progress under the writer lock.
+pub const TEMP_INFIX: &str = ".tmp-";
+
+/// Human name of a kind code.
+pub fn kind_name(kind: u32) -> &'static str {
+    match kind {
+        KIND_MANIFEST => "manifest",
+        KIND_SEGMENT => "segment",
+        _ => "unknown",
+    }
+}
+
+/// Appends the footer to `payload`, returning the whole file and its checksum.
+pub fn seal(mut payload: Vec<u8>, kind: u32, version: u32) -> (Vec<u8>, u64) {
+    let len = payload.len() as u64;
+    payload.extend_from_slice(&len.to_le_bytes());
+    payload.extend_from_slice(&kind.to_le_bytes());
+    payload.extend_from_slice(&version.to_le_bytes());
+    let checksum = xxh3_64(&payload);
+    payload.extend_from_slice(&checksum.to_le_bytes());
+    payload.extend_from_slice(&MAGIC);
+    (payload, checksum)
+}
+
+/// A file whose footer checked out.
+#[derive(Debug)]
+pub struct Opened {
+    /// The whole file, footer included.
+    pub bytes: Vec<u8>,
+    /// The checksum from the footer.
+    pub checksum: u64,
+}
+
+impl Opened {
+    /// The payload (everything before the footer).
+    pub fn payload(&self) -> &[u8] {
+        &self.bytes[..self.bytes.len() - FOOTER_LEN]
+    }
+}
+
+fn le_u64(b: &[u8]) -> u64 {
+    let mut a = [0u8; 8];
+    a.copy_from_slice(&b[..8]);
+    u64::from_le_bytes(a)
+}
+
+fn le_u32(b: &[u8]) -> u32 {
+    let mut a = [0u8; 4];
+    a.copy_from_slice(&b[..4]);
+    u32::from_le_bytes(a)
+}
+
+/// Checks the footer of `bytes` (read from `path`): length, magic, checksum, payload length,
+/// version (must be `version`), kind (must be `kind`).
+pub fn unseal(path: &Path, bytes: Vec<u8>, kind: u32, version: u32) -> Result<Opened> {
+    let len = bytes.len();
+    if len == 0 {
+        return Err(IndexError::corrupt(path, CorruptKind::Empty));
+    }
+    if len < FOOTER_LEN {
+        return Err(IndexError::corrupt(
+            path,
+            CorruptKind::TooShort { len: len as u64 },
+        ));
+    }
+    let footer = &bytes[len - FOOTER_LEN..];
+    if footer[24..32] != MAGIC {
+        return Err(IndexError::corrupt(path, CorruptKind::BadMagic));
+    }
+    let stored = le_u64(&footer[16..24]);
+    let computed = xxh3_64(&bytes[..len - 16]);
+    if stored != computed {
+        return Err(IndexError::corrupt(
+            path,
+            CorruptKind::ChecksumMismatch { stored, computed },
+        ));
+    }
+    let payload_len = le_u64(&footer[0..8]);
+    if payload_len != (len - FOOTER_LEN) as u64 {
+        return Err(IndexError::corrupt(
+            path,
+            CorruptKind::LengthMismatch {
+                expected: payload_len.saturating_add(FOOTER_LEN as u64),
+                actual: len as u64,
+            },
+        ));
+    }
+    let found_version = le_u32(&footer[12..16]);
+    if found_version != version {
+        return Err(IndexError::Incompatible {
+            path: path.to_path_buf(),
+            found: found_version,
+            supported: version,
+        });
+    }
+    let found_kind = le_u32(&footer[8..12]);
+    if found_kind != kind {
+        return Err(IndexError::corrupt(
+            path,
+            CorruptKind::WrongKind {
+                expected: kind_name(kind),
+                found: found_kind,
+            },
+        ));
+    }
+    Ok(Opened {
+        bytes,
+        checksum: stored,
+    })
+}
+
+/// Reads a whole file. `NotFound` is returned as the raw `io::Error` so callers can turn it
+/// into the right variant.
+pub fn read_all(path: &Path) -> std::io::Result<Vec<u8>> {
+    let mut f = File::open(path)?;
+    let mut buf = Vec::new();
+    f.read_to_end(&mut buf)?;
+    Ok(buf)
+}
+
+static TEMP_COUNTER: AtomicU64 = AtomicU64::new(0);
+
+/// Writes `bytes` to `dir/name` atomically (temp file, fsync, rename, fsync directory).
+pub fn write_atomic(dir: &Path, name: &str, bytes: &[u8]) -> Result<PathBuf> {
+    let n = TEMP_COUNTER.fetch_add(1, Ordering::Relaxed);
+    let tmp = dir.join(format!("{name}{TEMP_INFIX}{}-{n}", std::process::id()));
+    let target = dir.join(name);
+    let result = (|| {
+        let mut f = OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&tmp)
+            .map_err(|e| IndexError::io("could not create", &tmp, e))?;
+        f.write_all(bytes)
+            .map_err(|e| IndexError::io("could not write", &tmp, e))?;
+        f.sync_all()
+            .map_err(|e| IndexError::io("could not sync", &tmp, e))?;
+        drop(f);
+        fs::rename(&tmp, &target).map_err(|e| IndexError::io("could not rename into", &target, e))
+    })();
+    if let Err(e) = result {
+        // Best effort: the temp file is garbage either way and is also cleaned later.
+        let _ = fs::remove_file(&tmp);
+        return Err(e);
+    }
+    sync_dir(dir)?;
+    Ok(target)
+}
+
+/// Makes directory entries (creations, renames, removals) in `dir` durable.
+pub fn sync_dir(dir: &Path) -> Result<()> {
+    #[cfg(unix)]
+    {
+        let d = File::open(dir).map_err(|e| IndexError::io("could not open directory", dir, e))?;
+        d.sync_all()
+            .map_err(|e| IndexError::io("could not sync directory", dir, e))?;
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = dir;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn seal_then_unseal() {
+        let (bytes, sum) = seal(b"hello".to_vec(), KIND_SEGMENT, 7);
+        assert_eq!(bytes.len(), 5 + FOOTER_LEN);
+        let o = unseal(Path::new("x"), bytes, KIND_SEGMENT, 7).unwrap();
+        assert_eq!(o.payload(), b"hello");
+        assert_eq!(o.checksum, sum);
+    }
+
+    #[test]
+    fn every_flip_is_detected_as_corrupt() {
+        let (bytes, _) = seal(b"some payload".to_vec(), KIND_MANIFEST, 1);
+        for i in 0..bytes.len() {
+            for bit in [0x01u8, 0x80] {
+                let mut b = bytes.clone();
+                b[i] ^= bit;
+                let e = unseal(Path::new("f"), b, KIND_MANIFEST, 1).unwrap_err();
+                assert!(matches!(e, IndexError::Corrupt { .. }), "byte {i}: {e}");
+            }
+        }
+    }
+
+    #[test]
+    fn other_version_is_incompatible() {
+        let (bytes, _) = seal(b"p".to_vec(), KIND_MANIFEST, 3);
+        let e = unseal(Path::new("f"), bytes, KIND_MANIFEST, 1).unwrap_err();
+        assert!(matches!(
+            e,
+            IndexError::Incompatible {
+                found: 3,
+                supported: 1,
+                ..
+            }
+        ));
+        assert!(
+            e.to_string()
+                .contains("format version 3, this keycomp reads 1")
+        );
+    }
+}

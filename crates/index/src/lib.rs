@@ -1,0 +1,73 @@
+//! On-disk index of key-component descriptors (keycomp's retrieval store).
+//!
+//! An index is a directory (default [`DEFAULT_INDEX_DIR`]) holding:
+//! - `MANIFEST`: the list of live segment files, the tombstones of removed or replaced shapes,
+//!   id counters and a generation number; replaced atomically on every change;
+//! - `seg-NNNNNN.kcs`: immutable segments, each a batch of [`ShapeRecord`]s;
+//! - `LOCK`: the writers' advisory lock file (empty).
+//!
+//! Every file ends with a 32-byte footer (payload length, kind, format version, XXH3-64
+//! checksum, magic). The byte-level format is in `FORMAT.md` beside this crate's manifest.
+//!
+//! Writing: [`IndexWriter`] (one at a time per directory, enforced with the lock file) adds
+//! batches of records, replaces changed shapes, removes shapes, compacts. Every change is a
+//! new segment written atomically and then a new manifest renamed into place, so a process
+//! killed at any point leaves the index as it was before or after the change.
+//!
+//! Reading: [`IndexReader`] is a snapshot (one manifest, immutable segments) with a KD-tree
+//! (`kiddo`) over all live component descriptors for [`IndexReader::nearest_components`].
+//! Readers need no lock and may run while a writer works.
+//!
+//! Checking: [`verify`] reports every damaged, missing or incompatible file without changing
+//! anything. Errors ([`IndexError`]) say which file, whether it is corrupt or incompatible, and
+//! what to do.
+//!
+//! ```
+//! use keycomp_index::{IndexReader, IndexWriter, synthetic};
+//! # let dir = tempfile::tempdir().unwrap();
+//! # let dir = dir.path().join("index");
+//! let mut w = IndexWriter::<8>::create_or_open(&dir)?;
+//! let summary = w.add_batch(synthetic::records::<8>(1, 0..10))?;
+//! assert_eq!(summary.added, 10);
+//! drop(w);
+//! let r = IndexReader::<8>::open(&dir)?;
+//! let q = r.shapes()[3].record.components[0].descriptor;
+//! let hits = r.nearest_components(&q, 5)?;
+//! assert_eq!(hits[0].shape, r.shapes()[3].id);
+//! # Ok::<(), keycomp_index::IndexError>(())
+//! ```
+
+mod error;
+mod file;
+mod manifest;
+mod reader;
+mod record;
+mod segment;
+pub mod synthetic;
+mod verify;
+mod writer;
+
+pub use error::{CorruptKind, IndexError, Result};
+pub use reader::{ComponentMatch, IndexReader, IndexStats, IndexedShape, squared_distance};
+pub use record::{ComponentRecord, ContentHash, ShapeId, ShapeRecord, canonical_path};
+pub use verify::{VerifyReport, verify};
+pub use writer::{AddOutcome, AddSummary, IndexWriter};
+
+/// The on-disk format version this build reads and writes. Bumped on any incompatible change;
+/// files of another version are refused with [`IndexError::Incompatible`].
+pub const FORMAT_VERSION: u32 = 1;
+
+/// Default index directory, relative to the working directory.
+pub const DEFAULT_INDEX_DIR: &str = "index";
+
+/// File name of the manifest.
+pub const MANIFEST_NAME: &str = "MANIFEST";
+
+/// File name of the writers' lock file.
+pub const LOCK_NAME: &str = "LOCK";
+
+/// Size in bytes of the footer that closes every index file.
+pub const FOOTER_LEN: usize = file::FOOTER_LEN;
+
+/// The magic number in the last 8 bytes of every index file.
+pub const FOOTER_MAGIC: [u8; 8] = file::MAGIC;

@@ -1,0 +1,234 @@
+//! Segment files (`seg-NNNNNN.kcs`): an immutable batch of shape records.
+//!
+//! Payload (bincode 2, fixed-width little-endian integers; byte layout in `FORMAT.md`):
+//! a [`SegmentHead`] (descriptor length, segment number, and a catalogue of id, canonical path,
+//! content hash per shape) followed by the `Vec` of [`ShapeRecord`]s in catalogue order. The
+//! head alone is enough for a writer deciding skip/replace, so it is decoded without the
+//! records.
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{CorruptKind, IndexError, Result};
+use crate::file::{self, KIND_SEGMENT};
+use crate::manifest::{SegmentEntry, bincode_config, segment_file_name};
+use crate::record::{ContentHash, ShapeId, ShapeRecord};
+use crate::{FORMAT_VERSION, MANIFEST_NAME};
+
+/// Catalogue entry of one shape in a segment head.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct CatalogueEntry {
+    /// The shape's id.
+    pub id: ShapeId,
+    /// The shape's canonical path (its identity for skip/replace).
+    pub canonical_path: String,
+    /// Hash of the source file.
+    pub content_hash: ContentHash,
+}
+
+/// The first part of a segment payload.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SegmentHead {
+    /// Descriptor length `D`.
+    pub dim: u32,
+    /// The segment's number (must match its file name and manifest entry).
+    pub number: u64,
+    /// One entry per shape, ids strictly increasing.
+    pub catalogue: Vec<CatalogueEntry>,
+}
+
+/// A fully decoded segment.
+#[derive(Debug)]
+pub struct Segment<const D: usize> {
+    /// The head.
+    pub head: SegmentHead,
+    /// Records, in catalogue order.
+    pub records: Vec<ShapeRecord<D>>,
+}
+
+/// Encodes a segment; returns the sealed bytes and their checksum.
+pub fn encode<const D: usize>(
+    number: u64,
+    ids: &[ShapeId],
+    records: &[ShapeRecord<D>],
+) -> Result<(Vec<u8>, u64)> {
+    let head = SegmentHead {
+        dim: dim_u32::<D>(),
+        number,
+        catalogue: ids
+            .iter()
+            .zip(records)
+            .map(|(&id, r)| CatalogueEntry {
+                id,
+                canonical_path: r.canonical_path.to_string_lossy().into_owned(),
+                content_hash: r.content_hash,
+            })
+            .collect(),
+    };
+    let enc_err = |e: bincode::error::EncodeError| IndexError::InvalidRecord {
+        path: PathBuf::from(segment_file_name(number)),
+        reason: format!("could not encode the segment: {e}"),
+    };
+    let mut payload = bincode::serde::encode_to_vec(&head, bincode_config()).map_err(enc_err)?;
+    let body = bincode::serde::encode_to_vec(records, bincode_config()).map_err(enc_err)?;
+    payload.extend_from_slice(&body);
+    Ok(file::seal(payload, KIND_SEGMENT, FORMAT_VERSION))
+}
+
+/// `D` as stored on disk.
+pub(crate) fn dim_u32<const D: usize>() -> u32 {
+    u32::try_from(D).unwrap_or(u32::MAX)
+}
+
+/// Reads a segment file listed in the manifest, checks it against `entry` and its own footer,
+/// and returns its bytes (footer checked) and decoded head plus the offset where records start.
+fn open_checked(
+    dir: &Path,
+    entry: &SegmentEntry,
+    dim: u32,
+) -> Result<(file::Opened, SegmentHead, usize, PathBuf)> {
+    let path = dir.join(segment_file_name(entry.number));
+    let bytes = match file::read_all(&path) {
+        Ok(b) => b,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            return Err(IndexError::MissingSegment {
+                manifest: dir.join(MANIFEST_NAME),
+                segment: path,
+            });
+        }
+        Err(e) => return Err(IndexError::io("could not read", path, e)),
+    };
+    let actual = bytes.len() as u64;
+    if actual != entry.len {
+        // Report a damaged footer first if there is one; a length mismatch otherwise.
+        let kind = match file::unseal(&path, bytes, KIND_SEGMENT, FORMAT_VERSION) {
+            Err(e) => return Err(e),
+            Ok(_) => CorruptKind::LengthMismatch {
+                expected: entry.len,
+                actual,
+            },
+        };
+        return Err(IndexError::corrupt(path, kind));
+    }
+    let opened = file::unseal(&path, bytes, KIND_SEGMENT, FORMAT_VERSION)?;
+    if opened.checksum != entry.checksum {
+        return Err(IndexError::corrupt(
+            path,
+            CorruptKind::NotTheListedFile {
+                expected: entry.checksum,
+                found: opened.checksum,
+            },
+        ));
+    }
+    let (head, used): (SegmentHead, usize) =
+        bincode::serde::decode_from_slice(opened.payload(), bincode_config()).map_err(|e| {
+            IndexError::corrupt(&path, CorruptKind::Malformed(format!("segment head: {e}")))
+        })?;
+    let malformed = |msg: String| IndexError::corrupt(&path, CorruptKind::Malformed(msg));
+    if head.dim != dim {
+        return Err(IndexError::DimensionMismatch {
+            path: path.clone(),
+            found: head.dim,
+            expected: dim,
+        });
+    }
+    if head.number != entry.number {
+        return Err(malformed(format!(
+            "the head says segment {}, the file name says {}",
+            head.number, entry.number
+        )));
+    }
+    if head.catalogue.len() as u64 != entry.shapes {
+        return Err(malformed(format!(
+            "{} shapes in the file, the manifest says {}",
+            head.catalogue.len(),
+            entry.shapes
+        )));
+    }
+    if !head.catalogue.windows(2).all(|w| w[0].id < w[1].id) {
+        return Err(malformed("shape ids are not increasing".into()));
+    }
+    Ok((opened, head, used, path))
+}
+
+/// Reads only the head of a listed segment (all checksums are still verified).
+pub fn read_head(dir: &Path, entry: &SegmentEntry, dim: u32) -> Result<SegmentHead> {
+    open_checked(dir, entry, dim).map(|(_, head, _, _)| head)
+}
+
+/// Reads and fully decodes a listed segment, validating every record.
+pub fn read<const D: usize>(dir: &Path, entry: &SegmentEntry) -> Result<Segment<D>> {
+    let (opened, head, used, path) = open_checked(dir, entry, dim_u32::<D>())?;
+    let malformed = |msg: String| IndexError::corrupt(&path, CorruptKind::Malformed(msg));
+    let rest = &opened.payload()[used..];
+    let (records, used2): (Vec<ShapeRecord<D>>, usize) =
+        bincode::serde::decode_from_slice(rest, bincode_config())
+            .map_err(|e| malformed(format!("records: {e}")))?;
+    if used2 != rest.len() {
+        return Err(malformed(format!(
+            "{} unexpected bytes after the records",
+            rest.len() - used2
+        )));
+    }
+    if records.len() != head.catalogue.len() {
+        return Err(malformed(format!(
+            "{} records for {} catalogue entries",
+            records.len(),
+            head.catalogue.len()
+        )));
+    }
+    let mut components = 0u64;
+    for (r, c) in records.iter().zip(&head.catalogue) {
+        if r.canonical_path.to_str() != Some(c.canonical_path.as_str())
+            || r.content_hash != c.content_hash
+        {
+            return Err(malformed(format!(
+                "record of shape {} does not match its catalogue entry",
+                c.id
+            )));
+        }
+        r.validate()
+            .map_err(|e| malformed(format!("shape {}: {e}", c.id)))?;
+        components += r.components.len() as u64;
+    }
+    if components != entry.components {
+        return Err(malformed(format!(
+            "{components} components in the file, the manifest says {}",
+            entry.components
+        )));
+    }
+    Ok(Segment { head, records })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::synthetic;
+
+    /// The segment size follows the byte layout documented in FORMAT.md exactly.
+    #[test]
+    fn size_matches_documented_layout() {
+        const D: usize = 5;
+        let recs = synthetic::records::<D>(9, 0..3);
+        let ids = [ShapeId(4), ShapeId(5), ShapeId(6)];
+        let (bytes, _) = encode::<D>(7, &ids, &recs).unwrap();
+        let string = |s: &std::path::Path| 8 + s.to_str().unwrap().len();
+        let mut want = 4 + 8 + 8; // dim, number, catalogue count
+        for r in &recs {
+            want += 8 + string(&r.canonical_path) + 16;
+        }
+        want += 8; // record count
+        for r in &recs {
+            want += string(&r.path) + string(&r.canonical_path) + 16 + 4 + 4 + 8;
+            want += 8 + r.components.len() * (4 * D + 4 + 4 + 4);
+            want += 8 + 4 * r.layout.len();
+        }
+        assert_eq!(bytes.len(), want + file::FOOTER_LEN);
+        // The head starts with dim (u32 LE) and the segment number (u64 LE).
+        assert_eq!(&bytes[0..4], &5u32.to_le_bytes());
+        assert_eq!(&bytes[4..12], &7u64.to_le_bytes());
+        assert_eq!(&bytes[12..20], &3u64.to_le_bytes());
+        assert_eq!(&bytes[20..28], &4u64.to_le_bytes());
+    }
+}
