@@ -1,6 +1,6 @@
 //! The container every index file shares: payload, then a fixed 32-byte footer; atomic writes.
 //!
-//! Footer (last 32 bytes of every file, all integers little endian; see `FORMAT.md`):
+//! Footer (last 32 bytes of every file, all integers little endian; see `index/README.md` at the workspace root):
 //!
 //! | offset from footer start | size | field |
 //! |---|---|---|

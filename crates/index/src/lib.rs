@@ -7,7 +7,7 @@
 //! - `LOCK`: the writers' advisory lock file (empty).
 //!
 //! Every file ends with a 32-byte footer (payload length, kind, format version, XXH3-64
-//! checksum, magic). The byte-level format is in `FORMAT.md` beside this crate's manifest.
+//! checksum, magic). The byte-level format is in `index/README.md` at the workspace root.
 //!
 //! Writing: [`IndexWriter`] (one at a time per directory, enforced with the lock file) adds
 //! batches of records, replaces changed shapes, removes shapes, compacts. Every change is a

@@ -172,7 +172,7 @@ mod tests {
         assert_eq!(parse_segment_file_name("seg-000042.kcs.tmp-1-0"), None);
     }
 
-    /// The manifest bytes are exactly the layout documented in FORMAT.md.
+    /// The manifest bytes are exactly the layout documented in index/README.md at the workspace root.
     #[test]
     fn bytes_match_documented_layout() {
         let mut m = Manifest::empty(32);

@@ -1,6 +1,6 @@
 //! Segment files (`seg-NNNNNN.kcs`): an immutable batch of shape records.
 //!
-//! Payload (bincode 2, fixed-width little-endian integers; byte layout in `FORMAT.md`):
+//! Payload (bincode 2, fixed-width little-endian integers; byte layout in `index/README.md` at the workspace root):
 //! a [`SegmentHead`] (descriptor length, segment number, and a catalogue of id, canonical path,
 //! content hash per shape) followed by the `Vec` of [`ShapeRecord`]s in catalogue order. The
 //! head alone is enough for a writer deciding skip/replace, so it is decoded without the
@@ -206,7 +206,7 @@ mod tests {
     use super::*;
     use crate::synthetic;
 
-    /// The segment size follows the byte layout documented in FORMAT.md exactly.
+    /// The segment size follows the byte layout documented in index/README.md at the workspace root exactly.
     #[test]
     fn size_matches_documented_layout() {
         const D: usize = 5;

@@ -181,10 +181,8 @@ impl fmt::Display for MeshError {
 
 impl std::error::Error for MeshError {
     fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
-        match &self.kind {
-            ErrorKind::Io(e) => Some(e),
-            _ => None,
-        }
+        // the I/O error's text is already part of this error's message
+        None
     }
 }
 

@@ -8,6 +8,7 @@
 //! a [`Repairs`] report; unreferenced vertices are kept. Non-manifold edges, open boundaries and
 //! several connected pieces are valid input.
 
+pub mod cut;
 mod error;
 pub mod geometry;
 pub mod io;
