@@ -65,8 +65,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "{}",
         row("torus 250×200", &synth::torus(2.0, 0.6, 250, 200))?
     );
-    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/models");
-    for file in ["nefertiti.obj", "armadillo.obj", "horse.ply"] {
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data");
+    for file in [
+        "models/nefertiti.obj",
+        "models/armadillo.obj",
+        "models/horse.ply",
+        "kids/0001.null.0.off",
+    ] {
         let path = data.join(file);
         if !path.exists() {
             eprintln!("skipping {}: not found", path.display());

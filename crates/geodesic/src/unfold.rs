@@ -98,16 +98,17 @@ impl FaceGeometry {
 }
 
 /// A virtual two-point update owned by a vertex x: "when x freezes and `other` is frozen,
-/// update `target` from both", with the corner dot products of the unfolded triangle
-/// (x, target, other) and its 4·area².
+/// update `target` from both", with the geometry of the unfolded triangle (x, target, other):
+/// the lengths |x target| and |x other|, the dot product at x and 4·area².
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Stencil {
+    pub(crate) owner: u32,
     pub(crate) target: u32,
     pub(crate) other: u32,
-    pub(crate) dot_x: f32,
-    pub(crate) dot_t: f32,
-    pub(crate) dot_o: f32,
-    pub(crate) det: f32,
+    pub(crate) l_xt: f64,
+    pub(crate) l_xo: f64,
+    pub(crate) dot_x: f64,
+    pub(crate) det: f64,
 }
 
 type P2 = [f64; 2];
@@ -149,22 +150,21 @@ fn across(
     found
 }
 
-/// Builds the virtual stencils of every obtuse corner, as a CSR list per owning vertex.
+/// Builds the virtual stencils of every obtuse corner (four per split corner), in face order.
 pub(crate) fn obtuse_stencils(
     mesh: &Mesh,
     topo: &Topology,
     geo: &FaceGeometry,
     max_steps: usize,
     min_split_angle_degrees: f64,
-) -> (Vec<u32>, Vec<Stencil>, ObtuseStats) {
+) -> (Vec<Stencil>, ObtuseStats) {
     let cos_min = min_split_angle_degrees
         .max(90.0)
         .to_radians()
         .cos()
         .min(0.0);
-    let n = mesh.num_vertices();
     let mut stats = ObtuseStats::default();
-    let mut owned: Vec<(u32, Stencil)> = Vec::new();
+    let mut out: Vec<Stencil> = Vec::new();
     for (fi, face) in mesh.faces.iter().enumerate() {
         let g = &geo.faces[fi];
         for i in 0..3 {
@@ -185,50 +185,30 @@ pub(crate) fn obtuse_stencils(
             match split(mesh, topo, fi as u32, (c, a, b), a2, b2, max_steps) {
                 Some((v, v2)) => {
                     stats.split += 1;
+                    // C sits at the origin of the unfolded plane
                     for (p, p2, q, q2) in [(a, a2, v, v2), (v, v2, b, b2)] {
-                        let dot_c = dot2(p2, q2);
-                        let dot_p = -dot2(p2, sub(q2, p2));
-                        let dot_q = -dot2(q2, sub(p2, q2));
+                        let l_pq = dot2(sub(q2, p2), sub(q2, p2)).sqrt();
+                        let (l_pc, l_qc) = (dot2(p2, p2).sqrt(), dot2(q2, q2).sqrt());
                         let det = cross2(p2, q2).powi(2);
-                        let st = |x_dot: f64, o: u32, o_dot: f64| Stencil {
-                            target: c,
-                            other: o,
-                            dot_x: x_dot as f32,
-                            dot_t: dot_c as f32,
-                            dot_o: o_dot as f32,
-                            det: det as f32,
-                        };
-                        owned.push((p, st(dot_p, q, dot_q)));
-                        owned.push((q, st(dot_q, p, dot_p)));
+                        // (owner, other): the dot product at the owner is (C − owner)·(other − owner)
+                        for (x, x2, o, o2) in [(p, p2, q, q2), (q, q2, p, p2)] {
+                            out.push(Stencil {
+                                owner: x,
+                                target: c,
+                                other: o,
+                                l_xt: if x == p { l_pc } else { l_qc },
+                                l_xo: l_pq,
+                                dot_x: dot2(sub([0.0, 0.0], x2), sub(o2, x2)),
+                                det,
+                            });
+                        }
                     }
                 }
                 None => stats.unsplit += 1,
             }
         }
     }
-    let mut offsets = vec![0u32; n + 1];
-    for (o, _) in &owned {
-        offsets[*o as usize + 1] += 1;
-    }
-    for i in 0..n {
-        offsets[i + 1] += offsets[i];
-    }
-    let mut fill = offsets.clone();
-    let placeholder = Stencil {
-        target: 0,
-        other: 0,
-        dot_x: 0.0,
-        dot_t: 0.0,
-        dot_o: 0.0,
-        det: 0.0,
-    };
-    let mut stencils = vec![placeholder; owned.len()];
-    for (o, s) in owned {
-        let slot = &mut fill[o as usize];
-        stencils[*slot as usize] = s;
-        *slot += 1;
-    }
-    (offsets, stencils, stats)
+    (out, stats)
 }
 
 /// Unfolds triangles across AB looking for a vertex in the acute cone of the obtuse corner C
@@ -304,12 +284,19 @@ mod tests {
         };
         let topo = Topology::new(&mesh);
         let geo = FaceGeometry::compute(&mesh).unwrap();
-        let (offsets, stencils, stats) = obtuse_stencils(&mesh, &topo, &geo, 8, 90.0);
+        let (stencils, stats) = obtuse_stencils(&mesh, &topo, &geo, 8, 90.0);
         assert_eq!(stats.obtuse_corners, 1);
         assert_eq!(stats.split, 1);
         assert_eq!(stencils.len(), 4);
         // A (1) and B (2) own one stencil each, V (3) two; all target C = 0
-        assert_eq!(offsets, vec![0, 0, 1, 2, 4]);
-        assert!(stencils.iter().all(|s| s.target == 0 && s.dot_t >= 0.0));
+        let mut owners: Vec<u32> = stencils.iter().map(|s| s.owner).collect();
+        owners.sort_unstable();
+        assert_eq!(owners, vec![1, 2, 3, 3]);
+        for s in &stencils {
+            assert_eq!(s.target, 0);
+            assert!(s.det > 0.0 && s.l_xt > 0.0 && s.l_xo > 0.0);
+            // the split makes the angle at C acute: (x − C)·(other − C) = |xC|² − dot_x ≥ 0
+            assert!(s.l_xt * s.l_xt - s.dot_x >= 0.0);
+        }
     }
 }
