@@ -83,4 +83,15 @@ pub enum BenchError {
         /// Number of null vertices.
         null_vertices: usize,
     },
+    /// A mesh file could not be read (the error names the file).
+    #[error(transparent)]
+    Mesh(#[from] MeshError),
+    /// A benchmark data folder is missing or holds no usable shape.
+    #[error("{}: {message}", path.display())]
+    Data {
+        /// The folder or file.
+        path: PathBuf,
+        /// What is wrong and what to do.
+        message: String,
+    },
 }

@@ -7,10 +7,20 @@
 //! isometry comes from real pose data instead), detects components on X and on every Y, carries
 //! the components of Y back to X through the correspondence ([`evaluate::Pullback`]) and scores
 //! each one by its best area overlap with a component of X ([`evaluate::best_overlaps`]).
+//!
+//! [`experiment`] runs the whole protocol of the paper's Section 4 on a data folder and builds
+//! its Tables 1–3 and Figs. 7–9 ([`svg`]) next to the published numbers ([`paper`]); detection
+//! is split in a clustering-independent stage and a per-preset stage ([`staged`]) whose first
+//! half is cached on disk by content ([`cache`]).
 
+pub mod cache;
 mod error;
 pub mod evaluate;
+pub mod experiment;
 mod graph;
+pub mod paper;
+pub mod staged;
+pub mod svg;
 pub mod transform;
 
 pub use error::BenchError;

@@ -1,0 +1,165 @@
+//! Key-component detection in two stages, so that one shape can be evaluated under several
+//! presets for the price of one (Sipiran & Bustos, "Key-components: detection of salient regions
+//! on 3D meshes", The Visual Computer 29(12), 2013, Section 3).
+//!
+//! 1. [`embed`]: unit-area normalisation, Harris 3D keypoints, the fast-marching distance matrix
+//!    and the SMACOF embedding of the keypoints in the plane. None of it depends on the
+//!    clustering parameters R, T, N or on σ, and it is the expensive part (fast marching is
+//!    O(K·|V| log |V|)). Its result, an [`Embedded`], is small (K ids and K 2-D points) and is
+//!    what the benchmark caches on disk.
+//! 2. [`Extractor::components`]: adaptive clustering (Algorithm 1), geodesic centre (Eq. 2),
+//!    smallest enclosing sphere and region growing (Algorithm 2) for one preset; O(Iter·K·m +
+//!    component sizes), milliseconds.
+//!
+//! Together they give exactly the components of [`keycomp_components::detect`] with the same
+//! parameters (a unit test checks it): stage 1 *is* `detect` (its clustering output is
+//! discarded), stage 2 repeats `detect`'s extraction steps on the kept embedding.
+
+use keycomp_components::{
+    ClusterParams, ComponentParams, ComponentsError, DetectError, DetectParams, RegionGrower,
+    SmacofParams, adaptive_clustering, detect, geodesic_center, min_enclosing_sphere,
+};
+use keycomp_harris::HarrisParams;
+use keycomp_mesh::{Mesh, Point3, Topology, VertexId, geometry};
+
+/// The clustering-independent part of a detection: keypoints and their 2-D images.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Embedded {
+    /// Harris keypoints, best first (vertex ids of the mesh they were detected on).
+    pub keypoints: Vec<VertexId>,
+    /// The SMACOF image of each keypoint, same order, in unit-area geodesic units.
+    pub points: Vec<[f64; 2]>,
+}
+
+/// Stage 1: keypoints and their SMACOF embedding (see the [module docs](self)).
+pub fn embed(
+    mesh: &Mesh,
+    harris: &HarrisParams,
+    smacof: &SmacofParams,
+) -> Result<Embedded, DetectError> {
+    let params = DetectParams {
+        harris: *harris,
+        components: ComponentParams {
+            smacof: smacof.clone(),
+            ..ComponentParams::default()
+        },
+    };
+    let det = detect(mesh, &params)?;
+    Ok(Embedded {
+        keypoints: det.keypoints,
+        points: det.embedding.points,
+    })
+}
+
+/// Stage 2 for one mesh: holds the unit-area copy and its adjacency, and extracts the
+/// components of any [`Embedded`] detected on that mesh under any clustering parameters.
+#[derive(Debug)]
+pub struct Extractor {
+    norm: Mesh,
+    topo: Topology,
+}
+
+impl Extractor {
+    /// Normalises `mesh` to unit area (as [`keycomp_components::detect`] does) and builds its
+    /// adjacency. O(|V| + |F|).
+    pub fn new(mesh: &Mesh) -> Extractor {
+        let (norm, _) = geometry::normalize_unit_area(mesh);
+        let topo = Topology::new(&norm);
+        Extractor { norm, topo }
+    }
+
+    /// The vertex sets (sorted ids) of the key-components that `cluster` and `sigma` give on
+    /// `embedded`, in cluster order.
+    ///
+    /// Errors: invalid parameters, or an embedding whose keypoints are not vertices of this
+    /// mesh or whose point count differs from its keypoint count.
+    pub fn components(
+        &self,
+        embedded: &Embedded,
+        cluster: &ClusterParams,
+        sigma: f64,
+    ) -> Result<Vec<Vec<VertexId>>, ComponentsError> {
+        let n = self.norm.num_vertices();
+        if embedded.points.len() != embedded.keypoints.len() {
+            return Err(ComponentsError::IndexOutOfRange {
+                what: "embedded point count",
+                index: embedded.points.len(),
+                len: embedded.keypoints.len(),
+            });
+        }
+        if let Some(&v) = embedded.keypoints.iter().find(|&&v| v as usize >= n) {
+            return Err(ComponentsError::IndexOutOfRange {
+                what: "keypoint vertex",
+                index: v as usize,
+                len: n,
+            });
+        }
+        let clustering = adaptive_clustering(&embedded.points, cluster)?;
+        let mut grower = RegionGrower::new(&self.norm, &self.topo)?;
+        let mut out = Vec::with_capacity(clustering.clusters.len());
+        for c in &clustering.clusters {
+            let center = embedded.keypoints[geodesic_center(&c.members, &embedded.points)?];
+            let mut keypoints: Vec<VertexId> =
+                c.members.iter().map(|&i| embedded.keypoints[i]).collect();
+            keypoints.sort_unstable();
+            let points: Vec<Point3<f64>> = keypoints
+                .iter()
+                .map(|&v| self.norm.positions[v as usize])
+                .collect();
+            let sphere = min_enclosing_sphere(&points)?;
+            out.push(grower.grow(center, &keypoints, &sphere, sigma)?.vertices);
+        }
+        Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use keycomp_components::Preset;
+    use keycomp_mesh::synth;
+
+    #[test]
+    fn two_stages_give_exactly_the_components_of_detect() {
+        let mesh = synth::textured_protrusion_sphere(5);
+        let harris = HarrisParams::default();
+        let smacof = SmacofParams::default();
+        let embedded = embed(&mesh, &harris, &smacof).unwrap();
+        let extractor = Extractor::new(&mesh);
+        let mut total = 0;
+        for preset in Preset::ALL {
+            let params = DetectParams {
+                harris,
+                components: preset.component_params(),
+            };
+            let det = detect(&mesh, &params).unwrap();
+            assert_eq!(det.keypoints, embedded.keypoints);
+            let expected: Vec<Vec<VertexId>> =
+                det.components.iter().map(|c| c.vertices.clone()).collect();
+            let p = preset.component_params();
+            let got = extractor
+                .components(&embedded, &p.cluster, p.sigma)
+                .unwrap();
+            assert_eq!(got, expected, "{preset}");
+            total += got.len();
+        }
+        assert!(total > 0, "the test shape must give some components");
+    }
+
+    #[test]
+    fn foreign_embeddings_are_rejected() {
+        let mesh = synth::icosphere(1, 1.0);
+        let extractor = Extractor::new(&mesh);
+        let p = Preset::Kc1.component_params();
+        let bad = Embedded {
+            keypoints: vec![0, 10_000],
+            points: vec![[0.0, 0.0], [1.0, 0.0]],
+        };
+        assert!(extractor.components(&bad, &p.cluster, p.sigma).is_err());
+        let uneven = Embedded {
+            keypoints: vec![0, 1],
+            points: vec![[0.0, 0.0]],
+        };
+        assert!(extractor.components(&uneven, &p.cluster, p.sigma).is_err());
+    }
+}
