@@ -21,6 +21,10 @@ pub enum BenchCommand {
         after_help = "Example:\n  keycomp bench detect ../shared/data/models/nefertiti.obj --runs 5 --threads 2"
     )]
     Detect(DetectBenchArgs),
+    /// Repeatability of key-components under SHREC'10-style transformations and real poses:
+    /// the paper's Tables 1-3 (ours beside the paper's) and Figs. 7-9 (Section 4).
+    #[command(after_help = crate::repeatability::EXAMPLES)]
+    Repeatability(crate::repeatability::Args),
 }
 
 /// Arguments of `keycomp bench detect`.
@@ -72,6 +76,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 pub fn run(cmd: BenchCommand) -> Result<ExitCode> {
     match cmd {
         BenchCommand::Detect(args) => detect_bench(args),
+        BenchCommand::Repeatability(args) => crate::repeatability::run_cmd(args),
     }
 }
 

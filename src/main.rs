@@ -9,8 +9,13 @@ mod bench;
 mod colors;
 mod demo;
 mod detect;
+mod index_cmd;
 mod keypoints;
+mod match_cmd;
 mod output;
+mod query;
+mod repeatability;
+mod transform;
 
 use std::process::ExitCode;
 
@@ -33,6 +38,19 @@ enum Command {
     /// adaptive clustering, region growing.
     #[command(after_help = detect::EXAMPLES)]
     Detect(detect::Args),
+    /// Apply a SHREC'10-style transformation to a null mesh and write the transformed mesh and
+    /// its vertex correspondence.
+    #[command(after_help = transform::EXAMPLES)]
+    Transform(transform::Args),
+    /// Build and inspect the on-disk index of described shapes.
+    #[command(subcommand)]
+    Index(index_cmd::IndexCommand),
+    /// Rank the indexed shapes against a query mesh (whole shape or fragment).
+    #[command(after_help = query::EXAMPLES)]
+    Query(query::Args),
+    /// Match two meshes part to part: key-components paired by descriptor, checked for layout.
+    #[command(name = "match", after_help = match_cmd::EXAMPLES)]
+    Match(match_cmd::Args),
     /// Benchmarks that produce the tables in BENCHMARKS.md.
     #[command(subcommand)]
     Bench(bench::BenchCommand),
@@ -47,6 +65,10 @@ fn main() -> ExitCode {
         Command::Keypoints(args) => keypoints::run(args),
         Command::Detect(args) => detect::run(args),
         Command::Demo(args) => demo::run(args),
+        Command::Transform(args) => transform::run(args),
+        Command::Match(args) => match_cmd::run(args),
+        Command::Index(cmd) => index_cmd::run(cmd),
+        Command::Query(args) => query::run(args),
         Command::Bench(cmd) => bench::run(cmd),
     };
     match result {

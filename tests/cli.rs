@@ -310,3 +310,39 @@ fn keypoints_on_real_meshes() {
         println!("{name}: {k} keypoints of {n} vertices");
     }
 }
+
+#[test]
+fn match_pairs_a_shape_with_its_moved_copy() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let a = textured_off(dir.path());
+    let mut moved = synth::textured_protrusion_sphere(6);
+    for p in &mut moved.positions {
+        *p = keycomp_mesh::Point3::new(p.y * 40.0 + 5.0, -p.x * 40.0, p.z * 40.0 - 3.0);
+    }
+    let b = dir.path().join("moved.off");
+    write_off(&moved, &b).expect("write");
+    let (pa, pb) = (dir.path().join("a.ply"), dir.path().join("b.ply"));
+    let o = keycomp(&[
+        "match",
+        a.to_str().expect("utf8"),
+        b.to_str().expect("utf8"),
+        "--json",
+        "--ply-a",
+        pa.to_str().expect("utf8"),
+        "--ply-b",
+        pb.to_str().expect("utf8"),
+    ]);
+    assert!(o.status.success(), "stderr: {}", stderr(&o));
+    let v: Value = serde_json::from_slice(&o.stdout).expect("valid JSON");
+    assert_eq!(v["components_a"], 6);
+    assert_eq!(v["components_b"], 6);
+    let matches = v["matches"].as_array().expect("matches");
+    assert_eq!(matches.len(), 6);
+    // a rotated, scaled copy: every component pairs with itself (same detection order)
+    for m in matches {
+        assert_eq!(m["a_component"], m["b_component"]);
+    }
+    assert!(v["score"].as_f64().expect("score") > 0.95, "{v}");
+    assert!((v["scale"].as_f64().expect("scale") - 1.0).abs() < 1e-3);
+    assert!(read_mesh(&pa).is_ok() && read_mesh(&pb).is_ok());
+}

@@ -24,6 +24,10 @@
 //!
 //! Cost: O(m³) for m components (m is small, typically under 20), O(k²) for k matches.
 
+mod query;
+
+pub use query::{CANDIDATES_PER_COMPONENT, Ranked, rank};
+
 use keycomp_describe::{Descriptor, distance};
 use pathfinding::kuhn_munkres::kuhn_munkres;
 use pathfinding::matrix::Matrix;

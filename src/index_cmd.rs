@@ -1,0 +1,349 @@
+//! `keycomp index add|list|stats|remove|verify`: the on-disk index of described shapes.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use anyhow::{Context, Result, bail};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use keycomp_components::DetectParams;
+use keycomp_describe::DIM;
+use keycomp_index::{
+    ComponentRecord, ContentHash, IndexReader, IndexWriter, ShapeRecord, canonical_path,
+};
+use rayon::prelude::*;
+
+use crate::detect::DetectArgs;
+use crate::match_cmd::analyse;
+use crate::output;
+
+/// The index as the CLI uses it: descriptors of the describe crate's length.
+pub type Writer = IndexWriter<DIM>;
+/// The index as the CLI uses it: descriptors of the describe crate's length.
+pub type Reader = IndexReader<DIM>;
+
+/// Shapes described before each commit to disk.
+const BATCH: usize = 32;
+
+/// Index subcommands.
+#[derive(Debug, clap::Subcommand)]
+pub enum IndexCommand {
+    /// Add mesh files, or every supported mesh below directories (recursively).
+    #[command(
+        after_help = "Examples:\n  keycomp index add ../shared/data/tosca\n  keycomp index add a.off b.ply --index my-index"
+    )]
+    Add(AddArgs),
+    /// List the indexed shapes.
+    List(DirArgs),
+    /// Counts and sizes.
+    Stats(DirArgs),
+    /// Remove shapes by path.
+    Remove(RemoveArgs),
+    /// Check every file of the index (checksums, versions, listed segments); changes nothing.
+    Verify(DirArgs),
+}
+
+/// The index directory option.
+#[derive(Debug, Clone, clap::Args)]
+pub struct DirArgs {
+    /// Index directory.
+    #[arg(long, default_value = "index", value_name = "DIR")]
+    pub index: PathBuf,
+    /// Print JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Arguments of `keycomp index add`.
+#[derive(Debug, clap::Args)]
+pub struct AddArgs {
+    /// Mesh files or directories.
+    #[arg(required = true)]
+    pub paths: Vec<PathBuf>,
+    #[command(flatten)]
+    pub dir: DirArgs,
+    #[command(flatten)]
+    pub detect: DetectArgs,
+}
+
+/// Arguments of `keycomp index remove`.
+#[derive(Debug, clap::Args)]
+pub struct RemoveArgs {
+    /// Paths of indexed shapes.
+    #[arg(required = true)]
+    pub paths: Vec<PathBuf>,
+    #[command(flatten)]
+    pub dir: DirArgs,
+}
+
+const EXTENSIONS: [&str; 4] = ["off", "obj", "ply", "stl"];
+
+fn is_mesh(p: &Path) -> bool {
+    p.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| EXTENSIONS.contains(&e.to_ascii_lowercase().as_str()))
+}
+
+/// The files named, and the supported mesh files below the directories named, sorted per
+/// directory so the order is reproducible.
+fn collect(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
+    let mut out = Vec::new();
+    for p in paths {
+        if p.is_dir() {
+            let mut stack = vec![p.clone()];
+            while let Some(d) = stack.pop() {
+                let mut entries: Vec<PathBuf> = std::fs::read_dir(&d)
+                    .with_context(|| format!("{}: cannot read directory", d.display()))?
+                    .filter_map(|e| e.ok().map(|e| e.path()))
+                    .collect();
+                entries.sort();
+                for e in entries.into_iter().rev() {
+                    if e.is_dir() {
+                        stack.push(e);
+                    } else if is_mesh(&e) {
+                        out.push(e);
+                    }
+                }
+            }
+        } else {
+            out.push(p.clone()); // a named file is tried whatever its extension (clear error)
+        }
+    }
+    Ok(out)
+}
+
+/// Reads, detects and describes one file into an index record.
+pub fn record_of(path: &Path, params: &DetectParams) -> Result<ShapeRecord<DIM>> {
+    let hash = ContentHash::of_file(path)?;
+    let a = analyse(path, params)?;
+    Ok(ShapeRecord {
+        path: path.to_path_buf(),
+        canonical_path: canonical_path(path),
+        content_hash: hash,
+        vertex_count: a.mesh.num_vertices() as u32,
+        face_count: a.mesh.num_faces() as u32,
+        surface_area: a.detection.area,
+        components: a
+            .description
+            .components
+            .iter()
+            .map(|c| ComponentRecord {
+                descriptor: c.descriptor,
+                centre_vertex: c.center,
+                area_fraction: c.area as f32,
+                keypoint_count: c.keypoints as u32,
+            })
+            .collect(),
+        layout: a.description.layout.clone(),
+    })
+}
+
+/// A progress bar on stderr, hidden when stderr is not a terminal.
+pub fn progress(len: u64, what: &str) -> ProgressBar {
+    let bar = ProgressBar::with_draw_target(Some(len), ProgressDrawTarget::stderr());
+    if let Ok(style) =
+        ProgressStyle::with_template("{spinner} {msg} [{bar:30}] {pos}/{len} {elapsed} (eta {eta})")
+    {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar.set_message(what.to_string());
+    bar
+}
+
+pub fn run(cmd: IndexCommand) -> Result<ExitCode> {
+    match cmd {
+        IndexCommand::Add(a) => add(a),
+        IndexCommand::List(d) => list(d),
+        IndexCommand::Stats(d) => stats(d),
+        IndexCommand::Remove(r) => remove(r),
+        IndexCommand::Verify(d) => verify(d),
+    }
+}
+
+fn add(args: AddArgs) -> Result<ExitCode> {
+    let params = args.detect.params();
+    let files = collect(&args.paths)?;
+    if files.is_empty() {
+        bail!("no mesh files (.off, .obj, .ply, .stl) found in the paths given");
+    }
+    let mut writer = Writer::create_or_open(&args.dir.index)?;
+    let bar = progress(files.len() as u64, "indexing");
+    let (mut added, mut replaced, mut unchanged) = (0usize, 0usize, 0usize);
+    let mut failed: Vec<(PathBuf, String)> = Vec::new();
+    let done = AtomicUsize::new(0);
+    for chunk in files.chunks(BATCH) {
+        // files already indexed with the same content are skipped before any work
+        let todo: Vec<&PathBuf> = chunk
+            .iter()
+            .filter(|p| {
+                let same = writer
+                    .lookup(&canonical_path(p))
+                    .zip(ContentHash::of_file(p).ok())
+                    .is_some_and(|((_, old), new)| old == new);
+                if same {
+                    unchanged += 1;
+                    bar.inc(1);
+                }
+                !same
+            })
+            .collect();
+        let results: Vec<(PathBuf, Result<ShapeRecord<DIM>>)> = todo
+            .par_iter()
+            .map(|p| {
+                let r = record_of(p, &params);
+                done.fetch_add(1, Ordering::Relaxed);
+                bar.inc(1);
+                ((*p).clone(), r)
+            })
+            .collect();
+        let mut records = Vec::new();
+        for (p, r) in results {
+            match r {
+                Ok(rec) => records.push(rec),
+                Err(e) => {
+                    bar.suspend(|| eprintln!("skipped {}: {e:#}", p.display()));
+                    failed.push((p, format!("{e:#}")));
+                }
+            }
+        }
+        if !records.is_empty() {
+            let s = writer.add_batch(records)?;
+            added += s.added;
+            replaced += s.replaced;
+            unchanged += s.skipped;
+        }
+    }
+    bar.finish_and_clear();
+    let mut s = String::new();
+    writeln!(
+        s,
+        "{}: {added} added, {replaced} replaced, {unchanged} unchanged, {} failed ({} shapes in the index)",
+        args.dir.index.display(),
+        failed.len(),
+        writer.len()
+    )?;
+    for (p, e) in &failed {
+        writeln!(s, "  failed: {}: {e}", p.display())?;
+    }
+    output::print_text(&s)?;
+    Ok(if failed.is_empty() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(2)
+    })
+}
+
+fn list(args: DirArgs) -> Result<ExitCode> {
+    let reader = Reader::open(&args.index)?;
+    if args.json {
+        let rows: Vec<serde_json::Value> = reader
+            .shapes()
+            .iter()
+            .map(|s| {
+                serde_json::json!({
+                    "id": s.id.0,
+                    "path": s.record.path.display().to_string(),
+                    "hash": s.record.content_hash.to_hex(),
+                    "vertices": s.record.vertex_count,
+                    "faces": s.record.face_count,
+                    "components": s.record.components.len(),
+                })
+            })
+            .collect();
+        output::print_json(&rows)?;
+    } else {
+        let mut s = String::new();
+        for sh in reader.shapes() {
+            writeln!(
+                s,
+                "{:>6}  {:>8} v  {:>3} comp  {}",
+                sh.id.0,
+                sh.record.vertex_count,
+                sh.record.components.len(),
+                sh.record.path.display()
+            )?;
+        }
+        output::print_text(&s)?;
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn stats(args: DirArgs) -> Result<ExitCode> {
+    let reader = Reader::open(&args.index)?;
+    let st = reader.stats();
+    if args.json {
+        output::print_json(&serde_json::json!({
+            "dir": st.dir.display().to_string(),
+            "format_version": st.format_version,
+            "generation": st.generation,
+            "dim": st.dim,
+            "shapes": st.shapes,
+            "components": st.components,
+            "segments": st.segments,
+            "tombstones": st.tombstones,
+            "bytes": st.bytes,
+            "open_ms": reader.load_time().as_secs_f64() * 1e3,
+        }))?;
+    } else {
+        output::print_text(&format!(
+            "{}: format {}, generation {}, {} shapes, {} components (dim {}), {} segments, {} bytes, opened in {:.1} ms\n",
+            st.dir.display(),
+            st.format_version,
+            st.generation,
+            st.shapes,
+            st.components,
+            st.dim,
+            st.segments,
+            st.bytes,
+            reader.load_time().as_secs_f64() * 1e3
+        ))?;
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn remove(args: RemoveArgs) -> Result<ExitCode> {
+    let mut writer = Writer::create_or_open(&args.dir.index)?;
+    let n = writer.remove(&args.paths)?;
+    output::print_text(&format!(
+        "{}: removed {n} of {} paths ({} shapes left)\n",
+        args.dir.index.display(),
+        args.paths.len(),
+        writer.len()
+    ))?;
+    Ok(if n == 0 {
+        ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
+    })
+}
+
+fn verify(args: DirArgs) -> Result<ExitCode> {
+    let report = keycomp_index::verify::<DIM>(&args.index)?;
+    let mut s = String::new();
+    writeln!(
+        s,
+        "{}: {} of {} segments ok, {} shapes, {} components",
+        report.dir.display(),
+        report.segments_ok,
+        report.segments_listed,
+        report.shapes,
+        report.components
+    )?;
+    for p in &report.problems {
+        writeln!(s, "  problem: {p}")?;
+    }
+    for l in &report.leftovers {
+        writeln!(
+            s,
+            "  leftover (from an interrupted add; removed by the next add): {}",
+            l.display()
+        )?;
+    }
+    output::print_text(&s)?;
+    Ok(if report.is_ok() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(2)
+    })
+}

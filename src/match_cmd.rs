@@ -1,0 +1,227 @@
+//! `keycomp match A B`: part-to-part matching of two meshes by their key-components.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use keycomp_components::{DetectParams, Detection, detect};
+use keycomp_describe::{ShapeDescription, describe};
+use keycomp_mesh::{Mesh, read_mesh};
+use keycomp_retrieval::{MatchParams, ShapeView, match_shapes};
+use serde::Serialize;
+
+use crate::detect::DetectArgs;
+use crate::{colors, output};
+
+pub const EXAMPLES: &str = "Examples:
+  keycomp match cat0.off cat3.off
+  keycomp match scan.ply model.off --json
+  keycomp match a.off b.off --ply-a a-matched.ply --ply-b b-matched.ply";
+
+/// Arguments of `keycomp match`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// First mesh (the query side: the score is relative to its components).
+    pub a: PathBuf,
+    /// Second mesh.
+    pub b: PathBuf,
+    #[command(flatten)]
+    pub detect: DetectArgs,
+    /// Print JSON.
+    #[arg(long)]
+    pub json: bool,
+    /// Write A with each matched component in its pair's colour (PLY).
+    #[arg(long, value_name = "OUT")]
+    pub ply_a: Option<PathBuf>,
+    /// Write B with each matched component in its pair's colour (PLY).
+    #[arg(long, value_name = "OUT")]
+    pub ply_b: Option<PathBuf>,
+}
+
+/// A mesh read, detected and described.
+pub struct Analysed {
+    pub mesh: Mesh,
+    pub detection: Detection,
+    pub description: ShapeDescription,
+    pub ms: f64,
+}
+
+/// Reads, detects and describes one mesh file.
+pub fn analyse(path: &Path, params: &DetectParams) -> Result<Analysed> {
+    let t = Instant::now();
+    let mesh = read_mesh(path)?.mesh;
+    let detection = detect(&mesh, params)
+        .with_context(|| format!("{}: key-component detection failed", path.display()))?;
+    let description = describe(&mesh, &detection)
+        .with_context(|| format!("{}: describing key-components failed", path.display()))?;
+    Ok(Analysed {
+        mesh,
+        detection,
+        description,
+        ms: t.elapsed().as_secs_f64() * 1e3,
+    })
+}
+
+impl Analysed {
+    /// The matching view of this shape.
+    pub fn view(&self) -> (Vec<keycomp_describe::Descriptor>, &[f32]) {
+        (
+            self.description
+                .components
+                .iter()
+                .map(|c| c.descriptor)
+                .collect(),
+            &self.description.layout,
+        )
+    }
+}
+
+#[derive(Serialize)]
+struct MatchJson {
+    a_component: usize,
+    b_component: usize,
+    distance: f32,
+}
+
+#[derive(Serialize)]
+struct Report {
+    a: String,
+    b: String,
+    components_a: usize,
+    components_b: usize,
+    score: f64,
+    scale: Option<f64>,
+    rejected: usize,
+    matches: Vec<MatchJson>,
+    timings_ms: Timings,
+}
+
+#[derive(Serialize)]
+struct Timings {
+    a: f64,
+    b: f64,
+    matching: f64,
+}
+
+fn pair_colors(mesh: &Mesh, det: &Detection, pairs: &[(usize, usize)]) -> Vec<[u8; 3]> {
+    let mut cols = vec![colors::GREY; mesh.num_vertices()];
+    for c in &det.components {
+        for &v in &c.vertices {
+            cols[v as usize] = [110, 110, 110]; // unmatched components: dark grey
+        }
+    }
+    for &(k, comp) in pairs {
+        let col = colors::distinct(k);
+        for &v in &det.components[comp].vertices {
+            cols[v as usize] = col;
+        }
+    }
+    cols
+}
+
+pub fn run(args: Args) -> Result<ExitCode> {
+    let params = args.detect.params();
+    let (a, b) = rayon::join(|| analyse(&args.a, &params), || analyse(&args.b, &params));
+    let (a, b) = (a?, b?);
+    let t = Instant::now();
+    let (da, la) = a.view();
+    let (db, lb) = b.view();
+    let m = match_shapes(
+        ShapeView {
+            descriptors: &da,
+            layout: la,
+        },
+        ShapeView {
+            descriptors: &db,
+            layout: lb,
+        },
+        &MatchParams::default(),
+    );
+    let match_ms = t.elapsed().as_secs_f64() * 1e3;
+    if let Some(out) = &args.ply_a {
+        let pairs: Vec<(usize, usize)> = m
+            .matches
+            .iter()
+            .enumerate()
+            .map(|(k, x)| (k, x.query))
+            .collect();
+        keycomp_mesh::write_ply_colored(&a.mesh, &pair_colors(&a.mesh, &a.detection, &pairs), out)?;
+    }
+    if let Some(out) = &args.ply_b {
+        let pairs: Vec<(usize, usize)> = m
+            .matches
+            .iter()
+            .enumerate()
+            .map(|(k, x)| (k, x.target))
+            .collect();
+        keycomp_mesh::write_ply_colored(&b.mesh, &pair_colors(&b.mesh, &b.detection, &pairs), out)?;
+    }
+    if args.json {
+        output::print_json(&Report {
+            a: args.a.display().to_string(),
+            b: args.b.display().to_string(),
+            components_a: da.len(),
+            components_b: db.len(),
+            score: m.score,
+            scale: m.scale,
+            rejected: m.rejected,
+            matches: m
+                .matches
+                .iter()
+                .map(|x| MatchJson {
+                    a_component: x.query,
+                    b_component: x.target,
+                    distance: x.distance,
+                })
+                .collect(),
+            timings_ms: Timings {
+                a: a.ms,
+                b: b.ms,
+                matching: match_ms,
+            },
+        })?;
+    } else {
+        let mut s = String::new();
+        writeln!(
+            s,
+            "{}: {} key-components; {}: {} key-components",
+            args.a.display(),
+            da.len(),
+            args.b.display(),
+            db.len()
+        )?;
+        writeln!(
+            s,
+            "score {:.3} ({} matched pairs, {} rejected by the layout check{})",
+            m.score,
+            m.matches.len(),
+            m.rejected,
+            m.scale
+                .map(|x| format!(", length ratio B/A {x:.3}"))
+                .unwrap_or_default()
+        )?;
+        if !m.matches.is_empty() {
+            writeln!(
+                s,
+                "{:>4}  {:>11}  {:>11}  {:>9}",
+                "pair", "A component", "B component", "distance"
+            )?;
+        }
+        for (k, x) in m.matches.iter().enumerate() {
+            writeln!(
+                s,
+                "{:>4}  {:>11}  {:>11}  {:>9.4}",
+                k, x.query, x.target, x.distance
+            )?;
+        }
+        writeln!(
+            s,
+            "time: A {:.0} ms, B {:.0} ms, matching {match_ms:.2} ms",
+            a.ms, b.ms
+        )?;
+        output::print_text(&s)?;
+    }
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,389 @@
+//! `keycomp bench repeatability`: the paper's repeatability experiment (Sipiran & Bustos 2013,
+//! Section 4) on generated transformations and real poses; see `keycomp_bench::experiment`.
+
+use std::fs;
+use std::io::{IsTerminal, Write};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Duration;
+
+use anyhow::{Context, Result};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use keycomp_bench::Kind;
+use keycomp_bench::cache::EmbeddingCache;
+use keycomp_bench::experiment::{
+    Budget, Config, ISOMETRY, PresetSpec, Progress, Report, RunStats, discover, run,
+};
+use keycomp_bench::svg::{Curve, repeatability_svg};
+use keycomp_components::{Preset, SmacofParams};
+use keycomp_harris::HarrisParams;
+use serde::Serialize;
+
+use crate::keypoints::HarrisArgs;
+use crate::output;
+
+pub const EXAMPLES: &str = "Examples:
+  keycomp bench repeatability                       # ../shared/data, KC-1..3, everything
+  keycomp bench repeatability --preset kc1 --kinds noise,sampling --strengths 1,5
+  keycomp bench repeatability --tessellation-independent --out bench-out/repeatability-ti
+  keycomp bench repeatability --data my-null-shapes/ --count 200 --json > results.json
+
+Writes OUT/results.json (tables, curves, every component's best overlap), OUT/tables.md,
+OUT/repeatability-<preset>.svg (Figs. 7-9) and OUT/run.json (timings, cache use); prints the
+tables (ours / the paper's). Stage-1 detections are cached in OUT/cache by content, so a re-run
+with the same parameters takes seconds.";
+
+/// Arguments of `keycomp bench repeatability`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Null shapes: a folder laid out like ../shared/data (TOSCA pose 0 and KIDS null.0 are null
+    /// shapes, the other poses are their isometry transformations), or any folder whose mesh
+    /// files are all null shapes (no isometry) [default: ../shared/data].
+    #[arg(long, value_name = "DIR")]
+    pub data: Option<PathBuf>,
+    /// Presets to evaluate: kc1, kc2, kc3 or all.
+    #[arg(long, default_value = "all", value_parser = parse_presets)]
+    pub preset: PresetChoice,
+    #[command(flatten)]
+    pub harris: HarrisArgs,
+    /// Tessellation-independent keypoint budget: the null shape and every shape made from it
+    /// get 1 % of the null shape's vertex count (a fixed count per unit of normalised area)
+    /// instead of 1 % of their own.
+    #[arg(long, conflicts_with_all = ["fraction", "count"])]
+    pub tessellation_independent: bool,
+    /// Override R of every preset (marks it with *).
+    #[arg(long = "r", value_name = "R")]
+    pub r: Option<f64>,
+    /// Override T of every preset.
+    #[arg(long = "t", value_name = "T")]
+    pub t: Option<f64>,
+    /// Override N of every preset.
+    #[arg(long = "n", value_name = "N")]
+    pub n: Option<usize>,
+    /// Override σ of every preset.
+    #[arg(long, value_name = "S")]
+    pub sigma: Option<f64>,
+    /// Transformations, comma-separated: isometry, holes, microholes, noise, shotnoise, scale,
+    /// localscale, topology, sampling [default: all].
+    #[arg(long, value_delimiter = ',', value_parser = parse_kind, value_name = "KINDS")]
+    pub kinds: Vec<KindChoice>,
+    /// Strengths, comma-separated, each 1..5 [default: 1,2,3,4,5].
+    #[arg(long, value_delimiter = ',', value_parser = clap::value_parser!(u8).range(1..=5), value_name = "S")]
+    pub strengths: Vec<u8>,
+    /// Seed of the generated transformations.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Seed of SMACOF's random starts.
+    #[arg(long, default_value_t = 0, value_name = "S")]
+    pub smacof_seed: u64,
+    /// Output folder.
+    #[arg(long, default_value = "bench-out/repeatability", value_name = "DIR")]
+    pub out: PathBuf,
+    /// Cache folder for detections [default: OUT/cache].
+    #[arg(long, value_name = "DIR")]
+    pub cache: Option<PathBuf>,
+    /// Do not read or write the detection cache.
+    #[arg(long, conflicts_with = "cache")]
+    pub no_cache: bool,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// One shape at a time (each detection still uses every thread) instead of several shapes
+    /// in parallel.
+    #[arg(long)]
+    pub sequential: bool,
+    /// Print results.json on stdout instead of the tables.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// The presets chosen with `--preset`.
+#[derive(Debug, Clone)]
+pub struct PresetChoice(Vec<Preset>);
+
+fn parse_presets(s: &str) -> Result<PresetChoice, String> {
+    if s.eq_ignore_ascii_case("all") {
+        return Ok(PresetChoice(Preset::ALL.to_vec()));
+    }
+    s.parse::<Preset>()
+        .map(|p| PresetChoice(vec![p]))
+        .map_err(|_| format!("unknown preset '{s}' (kc1, kc2, kc3 or all)"))
+}
+
+/// A transformation chosen with `--kinds`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum KindChoice {
+    /// Real poses.
+    Isometry,
+    /// A generated kind.
+    Generated(Kind),
+}
+
+fn parse_kind(s: &str) -> Result<KindChoice, String> {
+    if s.trim().eq_ignore_ascii_case(ISOMETRY) {
+        return Ok(KindChoice::Isometry);
+    }
+    s.parse::<Kind>().map(KindChoice::Generated).map_err(|_| {
+        format!(
+            "unknown transformation '{s}': use isometry, holes, microholes, noise, shotnoise, \
+                 scale, localscale, topology or sampling"
+        )
+    })
+}
+
+impl Args {
+    fn config(&self, cache: Option<EmbeddingCache>) -> Config {
+        let modified =
+            self.r.is_some() || self.t.is_some() || self.n.is_some() || self.sigma.is_some();
+        let presets = self
+            .preset
+            .0
+            .iter()
+            .map(|p| {
+                let c = p.component_params();
+                let mut cluster = c.cluster;
+                if let Some(r) = self.r {
+                    cluster.r = r;
+                }
+                if let Some(t) = self.t {
+                    cluster.t = t;
+                }
+                if let Some(n) = self.n {
+                    cluster.n_min = n;
+                }
+                PresetSpec {
+                    name: format!("{p}{}", if modified { "*" } else { "" }),
+                    cluster,
+                    sigma: self.sigma.unwrap_or(c.sigma),
+                }
+            })
+            .collect();
+        let harris = self.harris.params(HarrisParams::default());
+        let budget = if self.tessellation_independent {
+            Budget::NullCalibrated(0.01)
+        } else {
+            Budget::PerShape(harris.selection)
+        };
+        let (kinds, isometry) = if self.kinds.is_empty() {
+            (Kind::ALL.to_vec(), true)
+        } else {
+            let mut kinds = Vec::new();
+            for k in &self.kinds {
+                if let KindChoice::Generated(k) = k
+                    && !kinds.contains(k)
+                {
+                    kinds.push(*k);
+                }
+            }
+            (kinds, self.kinds.contains(&KindChoice::Isometry))
+        };
+        let mut strengths = if self.strengths.is_empty() {
+            vec![1, 2, 3, 4, 5]
+        } else {
+            self.strengths.clone()
+        };
+        strengths.sort_unstable();
+        strengths.dedup();
+        Config {
+            presets,
+            harris,
+            budget,
+            smacof: SmacofParams {
+                seed: self.smacof_seed,
+                ..SmacofParams::default()
+            },
+            kinds,
+            isometry,
+            strengths,
+            seed: self.seed,
+            cache,
+            parallel_shapes: !self.sequential,
+        }
+    }
+}
+
+/// Writes `bytes` to `path` through a temporary sibling and a rename.
+fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = path.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
+    let result = (|| -> std::io::Result<()> {
+        let mut f = fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_data()?;
+        fs::rename(&tmp, path)
+    })();
+    if result.is_err() {
+        let _ = fs::remove_file(&tmp);
+    }
+    result.with_context(|| format!("{}: cannot write", path.display()))
+}
+
+/// `KC-1` → `kc1`, `KC-1*` → `kc1-modified`.
+fn file_tag(preset: &str) -> String {
+    let base: String = preset
+        .trim_end_matches('*')
+        .chars()
+        .filter(|c| c.is_ascii_alphanumeric())
+        .collect::<String>()
+        .to_ascii_lowercase();
+    if preset.ends_with('*') {
+        format!("{base}-modified")
+    } else {
+        base
+    }
+}
+
+#[derive(Serialize)]
+struct RunJson<'a> {
+    data: String,
+    out: String,
+    cache: Option<String>,
+    threads: usize,
+    parallel_shapes: bool,
+    stats: &'a RunStats,
+}
+
+fn progress_bar() -> ProgressBar {
+    let target = if std::io::stderr().is_terminal() {
+        ProgressDrawTarget::stderr()
+    } else {
+        ProgressDrawTarget::hidden()
+    };
+    let bar = ProgressBar::with_draw_target(Some(0), target);
+    if let Ok(style) =
+        ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} shapes  {msg}")
+    {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar.enable_steady_tick(Duration::from_millis(250));
+    bar
+}
+
+pub fn run_cmd(args: Args) -> Result<ExitCode> {
+    let data = args
+        .data
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("../shared/data"));
+    let nulls = discover(&data)?;
+    let cache_dir = if args.no_cache {
+        None
+    } else {
+        Some(args.cache.clone().unwrap_or_else(|| args.out.join("cache")))
+    };
+    let config = args.config(cache_dir.clone().map(EmbeddingCache::new));
+    config
+        .harris
+        .validate()
+        .context("invalid keypoint options")?;
+    for p in &config.presets {
+        p.cluster
+            .validate()
+            .with_context(|| format!("invalid clustering options for {}", p.name))?;
+    }
+    fs::create_dir_all(&args.out)
+        .with_context(|| format!("{}: cannot create the output folder", args.out.display()))?;
+
+    let mut builder = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = args.threads {
+        builder = builder.num_threads(n);
+    }
+    let pool = builder.build().context("cannot start the thread pool")?;
+    let threads = pool.current_num_threads();
+
+    let bar = progress_bar();
+    let on_progress = |p: Progress<'_>| {
+        bar.set_length(p.total as u64);
+        bar.set_position(p.done as u64);
+        bar.set_message(p.shape.to_owned());
+    };
+    let result = pool.install(|| run(&config, &nulls, &on_progress));
+    bar.finish_and_clear();
+    let (report, stats) = result?;
+
+    write_outputs(&args, &data, cache_dir.as_deref(), threads, &report, &stats)?;
+    let evaluated = report.shapes.iter().filter(|s| s.kind != "null").count();
+    eprintln!(
+        "{} shapes ({} computed, {} from the cache{}) in {:.1} s on {threads} threads; wrote {}",
+        report.shapes.len(),
+        stats.computed,
+        stats.cache_hits,
+        if stats.corrupt_entries > 0 {
+            format!(", {} corrupt entries replaced", stats.corrupt_entries)
+        } else {
+            String::new()
+        },
+        stats.seconds,
+        args.out.display()
+    );
+    for e in &stats.cache_write_errors {
+        eprintln!("warning: could not cache a detection: {e}");
+    }
+    if args.json {
+        output::print_json(&report)?;
+    } else {
+        output::print_text(&report.markdown())?;
+    }
+    Ok(if evaluated == 0 {
+        ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
+    })
+}
+
+fn write_outputs(
+    args: &Args,
+    data: &Path,
+    cache: Option<&Path>,
+    threads: usize,
+    report: &Report,
+    stats: &RunStats,
+) -> Result<()> {
+    let out = &args.out;
+    let json = serde_json::to_vec_pretty(report).context("cannot serialise the results")?;
+    write_atomic(&out.join("results.json"), &json)?;
+    write_atomic(&out.join("tables.md"), report.markdown().as_bytes())?;
+    for pr in &report.presets {
+        let curves: Vec<Curve> = pr
+            .curves
+            .iter()
+            .map(|c| Curve {
+                label: format!("{} ({})", c.label, c.components),
+                values: c.values.clone(),
+            })
+            .collect();
+        let title = format!(
+            "{}: repeatability vs overlap (R {}, T {}, N {})",
+            pr.preset.name, pr.preset.cluster.r, pr.preset.cluster.t, pr.preset.cluster.n_min
+        );
+        let svg = repeatability_svg(&title, &report.thresholds, &curves);
+        write_atomic(
+            &out.join(format!("repeatability-{}.svg", file_tag(&pr.preset.name))),
+            svg.as_bytes(),
+        )?;
+    }
+    let run = RunJson {
+        data: data.display().to_string(),
+        out: out.display().to_string(),
+        cache: cache.map(|c| c.display().to_string()),
+        threads,
+        parallel_shapes: !args.sequential,
+        stats,
+    };
+    let json = serde_json::to_vec_pretty(&run).context("cannot serialise the run statistics")?;
+    write_atomic(&out.join("run.json"), &json)?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn file_tags() {
+        assert_eq!(file_tag("KC-1"), "kc1");
+        assert_eq!(file_tag("KC-3*"), "kc3-modified");
+    }
+}

@@ -1,0 +1,221 @@
+//! End-to-end retrieval: `keycomp index add`, `query`, `index list|stats|verify|remove` on
+//! real shapes (skipped with a message when `../shared/data` is absent) and on synthetic ones.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use keycomp_mesh::{Point3, Vector3, cut, geometry, read_mesh, synth, write_off};
+use serde_json::Value;
+
+fn keycomp(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_keycomp"))
+        .args(args)
+        .output()
+        .expect("the keycomp binary runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().expect("utf8 path")
+}
+
+fn shared_data() -> Option<PathBuf> {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data");
+    if p.is_dir() {
+        Some(p)
+    } else {
+        eprintln!("skipping: ../shared/data not found");
+        None
+    }
+}
+
+fn class_of(path: &str) -> String {
+    let name = Path::new(path)
+        .file_stem()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    name.trim_end_matches(|c: char| c.is_ascii_digit())
+        .to_string()
+}
+
+/// Index TOSCA cats, dogs, horses and centaurs; query with halves of shapes cut by planes
+/// through their centroid: the source shape's class must come first.
+#[test]
+fn partial_queries_find_their_class_on_tosca() {
+    let Some(data) = shared_data() else { return };
+    let dir = tempfile::tempdir().expect("tempdir");
+    let index = dir.path().join("index");
+    let tosca = data.join("tosca");
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&tosca)
+        .expect("tosca")
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            let c = class_of(s(p));
+            ["cat", "dog", "horse", "centaur"].contains(&c.as_str())
+        })
+        .collect();
+    files.sort();
+    let mut args = vec!["index", "add", "--index", s(&index)];
+    args.extend(files.iter().map(|p| s(p)));
+    let o = keycomp(&args);
+    assert!(o.status.success(), "index add: {}", stderr(&o));
+
+    let (mut hits, mut total) = (0, 0);
+    for (name, axis) in [
+        ("cat3", 0),
+        ("cat3", 1),
+        ("dog2", 0),
+        ("horse5", 0),
+        ("centaur1", 0),
+    ] {
+        let mesh = read_mesh(&tosca.join(format!("{name}.off")))
+            .expect("read")
+            .mesh;
+        let bb = geometry::bounding_box(&mesh);
+        let mid = Point3::from((bb.min.coords + bb.max.coords) / 2.0);
+        for sign in [1.0, -1.0] {
+            let mut n = Vector3::zeros();
+            n[axis] = sign;
+            let (half, _) = cut::cut_by_plane(&mesh, mid, n);
+            let frac = geometry::total_area(&half) / geometry::total_area(&mesh);
+            let q = dir.path().join(format!("{name}-{axis}-{sign}.off"));
+            write_off(&half, &q).expect("write fragment");
+            let o = keycomp(&["query", s(&q), "--index", s(&index), "-k", "5", "--json"]);
+            let v: Value = serde_json::from_slice(&o.stdout).unwrap_or(Value::Null);
+            let top: Vec<String> = v["results"]
+                .as_array()
+                .map(|r| {
+                    r.iter()
+                        .map(|x| x["path"].as_str().unwrap_or("").to_string())
+                        .collect()
+                })
+                .unwrap_or_default();
+            let hit = top.first().is_some_and(|t| class_of(t) == class_of(name));
+            println!(
+                "{name} half (axis {axis}, side {sign}, {:.0} % of the area, {} components): top {:?} {}",
+                frac * 100.0,
+                v["components"],
+                top.iter()
+                    .map(|t| class_of(t) + &t[t.len().saturating_sub(6)..])
+                    .collect::<Vec<_>>(),
+                if hit { "HIT" } else { "miss" }
+            );
+            total += 1;
+            hits += hit as usize;
+        }
+    }
+    println!("partial queries: {hits} of {total} ranked their class first");
+    assert!(hits * 10 >= total * 7, "{hits} of {total}");
+}
+
+#[test]
+fn index_commands_on_synthetic_shapes() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let index = dir.path().join("idx");
+    let shapes = dir.path().join("shapes");
+    std::fs::create_dir_all(shapes.join("sub")).expect("mkdir");
+    write_off(
+        &synth::textured_protrusion_sphere(6),
+        &shapes.join("textured.off"),
+    )
+    .expect("w");
+    write_off(
+        &synth::torus(2.0, 0.5, 120, 60),
+        &shapes.join("sub/torus.off"),
+    )
+    .expect("w");
+    std::fs::write(shapes.join("sub/broken.off"), "OFF\n3 1 0\n0 0 0\n").expect("w");
+    std::fs::write(shapes.join("notes.txt"), "not a mesh").expect("w");
+
+    // a directory, recursively: the broken file is reported and skipped, exit 2
+    let o = keycomp(&["index", "add", s(&shapes), "--index", s(&index)]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("2 added") && out.contains("1 failed"), "{out}");
+    assert!(stderr(&o).contains("broken.off"), "{}", stderr(&o));
+
+    // again: nothing changes
+    let o = keycomp(&[
+        "index",
+        "add",
+        s(&shapes.join("textured.off")),
+        "--index",
+        s(&index),
+    ]);
+    assert!(o.status.success());
+    assert!(String::from_utf8_lossy(&o.stdout).contains("1 unchanged"));
+
+    let o = keycomp(&["index", "stats", "--index", s(&index), "--json"]);
+    let v: Value = serde_json::from_slice(&o.stdout).expect("json");
+    assert_eq!(v["shapes"], 2);
+    let o = keycomp(&["index", "verify", "--index", s(&index)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stdout));
+
+    // the textured shape finds itself first
+    let o = keycomp(&[
+        "query",
+        s(&shapes.join("textured.off")),
+        "--index",
+        s(&index),
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: Value = serde_json::from_slice(&o.stdout).expect("json");
+    assert!(
+        v["results"][0]["path"]
+            .as_str()
+            .expect("path")
+            .ends_with("textured.off")
+    );
+    assert!((v["results"][0]["score"].as_f64().expect("score") - 1.0).abs() < 1e-6);
+
+    // changing a file replaces its entry
+    write_off(
+        &synth::textured_protrusion_sphere(5),
+        &shapes.join("textured.off"),
+    )
+    .expect("w");
+    let o = keycomp(&[
+        "index",
+        "add",
+        s(&shapes.join("textured.off")),
+        "--index",
+        s(&index),
+    ]);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("1 replaced"));
+
+    let o = keycomp(&[
+        "index",
+        "remove",
+        s(&shapes.join("sub/torus.off")),
+        "--index",
+        s(&index),
+    ]);
+    assert!(o.status.success());
+    let o = keycomp(&["index", "list", "--index", s(&index), "--json"]);
+    let v: Value = serde_json::from_slice(&o.stdout).expect("json");
+    assert_eq!(v.as_array().expect("list").len(), 1);
+
+    // a corrupt index is an error naming the file, never a wrong answer
+    let seg = std::fs::read_dir(&index)
+        .expect("index dir")
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .find(|p| p.extension().is_some_and(|e| e == "kcs"))
+        .expect("a segment");
+    let mut bytes = std::fs::read(&seg).expect("read");
+    bytes[10] ^= 0x40;
+    std::fs::write(&seg, bytes).expect("write");
+    let o = keycomp(&[
+        "query",
+        s(&shapes.join("textured.off")),
+        "--index",
+        s(&index),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("corrupt"), "{}", stderr(&o));
+    let o = keycomp(&["index", "verify", "--index", s(&index)]);
+    assert_eq!(o.status.code(), Some(2));
+}
