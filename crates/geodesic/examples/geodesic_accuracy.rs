@@ -43,6 +43,7 @@ fn error(mesh: &Mesh, angle: f64, steps: usize) -> (f64, usize, usize) {
         GeodesicParams {
             max_unfold_steps: steps,
             min_split_angle_degrees: angle,
+            ..GeodesicParams::default()
         },
     )
     .expect("solver");

@@ -22,8 +22,9 @@
 //!    wedge between two consecutive entries. Obtuse corners are split by unfolding (see *Obtuse
 //!    triangles*); the resulting virtual stencils follow the ring in the same run.
 //! 2. **Initialise** a front: `d(source) = 0` in an indexed 4-ary heap (decrease-key, one entry
-//!    per vertex); every other vertex is *far* (`d = ∞`). Vertices come in three states: far,
-//!    *trial* (tentative value, in the heap), *frozen* (final; stored with the sign bit set).
+//!    per vertex; bucket queues are options, see *Priority queue*); every other vertex is *far*
+//!    (`d = ∞`). Vertices come in three states: far, *trial* (tentative value, in the heap),
+//!    *frozen* (final; stored with the sign bit set).
 //! 3. **Freeze** the trial vertex x with the smallest tentative value.
 //! 4. **Update** the neighbours: for every entry p of x's ring that is not frozen, the candidate
 //!    is the smallest of
@@ -95,6 +96,54 @@
 //! corner, 0.69 % above 110° and 0.74 % above 120° (±0.8: 7.2 %, 4.7 %, 4.9 %, 5.0 %), hence
 //! the default of splitting every obtuse corner.
 //!
+//! # Priority queue
+//!
+//! Values leave the queue in non-decreasing order and every insertion lies at most one (possibly
+//! virtual) edge length above the value just popped, so a circular array of buckets keyed on
+//! the distance can replace the heap ([`GeodesicParams::queue`]): the untidy priority queue of
+//! L. Yatziv, A. Bartesaghi and G. Sapiro ("O(N) implementation of the fast marching
+//! algorithm", *Journal of Computational Physics* 212(2):393–399, 2006; O(1) per operation,
+//! lazy decrease-key, no order within a bucket: [`QueueKind::Untidy`]), and an exact variant
+//! that keeps the current bucket sorted ([`QueueKind::Buckets`]). Per front of the K×K matrix
+//! (K = 1 % of the vertices; median of 9 alternated runs of 100 fronts, one thread, mesh loading
+//! and solver building subtracted; user-space Mcycles, Minstructions in parentheses; another
+//! workload shared the machine, so cycles vary by ±10 % between runs, instructions do not):
+//!
+//! | mesh | heap (default) | untidy, width 0.1 | untidy, width 0.2 | exact buckets¹ |
+//! |---|---|---|---|---|
+//! | `icosphere(6)` | 11.5 (28.1) | 10.2 (24.4) | 10.3 (24.4) | +34 % (31.4) |
+//! | `nefertiti.obj` | 31.6² (39.9) | 33.9² (35.1) | 28.9 (35.0) | +22 % (46.2) |
+//! | `horse.ply` | 17.9 (35.5) | 17.6 (30.9) | 17.5 (30.9) | +13 % (40.0) |
+//! | KIDS `0001.null.0.off` | 28.7 (48.5) | 29.8 (43.0) | 27.9 (42.9) | +21 % (55.1) |
+//!
+//! ¹ Cycles relative to the heap in a separate run of 7; bucket width 0.02 mean edge lengths
+//! (0.005–0.02 within noise of each other, wider is slower). ² The noisiest row: minima 24.4
+//! (heap) and 24.7 (untidy 0.1).
+//!
+//! The exact buckets gave bit-identical distances to the heap on every mesh above and in the
+//! tests (ties are broken by vertex id instead of heap position, and never changed a value),
+//! but are slower: the trial band of a 50k-vertex front holds only about 600 entries within
+//! about one edge length, so the 4-ary heap is shallow, while buckets add a sort per bucket,
+//! stale entries (a decrease-key is a new entry: about 2.1 entries per vertex, half the pops
+//! stale) and a scan over buckets, all unpredictable branches. The untidy queue saves 11–13 %
+//! of the instructions but only 0–10 % of the cycles (the front waits on memory, not on the
+//! queue) and changes the results: mean relative errors on the oracles of tests/oracle.rs,
+//! heap → untidy 0.1 → 0.2 → 0.5 (in %):
+//!
+//! | oracle | heap | untidy 0.1 | untidy 0.2 | untidy 0.5 |
+//! |---|---|---|---|---|
+//! | `icosphere(6)`, great circles | 0.4940 | 0.4940 | 0.4940 | 0.4957 |
+//! | sheared grid | 0.3775 | 0.3775 | 0.3775 | 0.3984 |
+//! | jittered grid | 0.9778 | 0.9778 | 0.9781 | 1.0122 |
+//! | flat grid | 0.5238 | 0.5250 | 0.5403 | 0.7376 |
+//!
+//! and against the heap's distances on the real meshes (5 full fronts) a mean relative
+//! difference of 3·10⁻⁶ (`horse.ply`) to 2·10⁻⁵ (KIDS) at width 0.1 but up to 7 % on single
+//! vertices (28 % at width 0.2: an ordering error is below the width, which is large next to
+//! the short edges of finely sampled regions). Hence the heap stays the default: the exact
+//! buckets are slower, and the untidy queue's few percent do not pay for results that are no
+//! longer those of fast marching.
+//!
 //! # Meshes
 //!
 //! Boundaries and non-manifold edges need nothing special (a wedge is a face seen from one of its
@@ -102,6 +151,7 @@
 //! [`distance_matrix`] replaces the resulting infinities by a documented finite value and counts
 //! them.
 
+mod bucket;
 mod error;
 mod heap;
 pub mod matrix;
@@ -110,4 +160,4 @@ mod unfold;
 
 pub use error::GeodesicError;
 pub use matrix::{DistanceMatrix, distance_matrix};
-pub use solver::{GeodesicParams, GeodesicSolver, ObtuseStats, Workspace};
+pub use solver::{GeodesicParams, GeodesicSolver, ObtuseStats, QueueKind, Workspace};

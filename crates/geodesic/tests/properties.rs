@@ -1,10 +1,11 @@
 //! Invariants of fast marching on random meshes (proptest): distances are ≥ 0, 0 at the source,
 //! never above Dijkstra on the edges, nearly symmetric, and roughly satisfy the triangle
-//! inequality; early termination and the matrix agree with full fronts.
+//! inequality; early termination and the matrix agree with full fronts; the bucket queues agree
+//! with the heap.
 
 #![allow(clippy::unwrap_used)] // helpers outside #[test] fns, in a test crate
 
-use keycomp_geodesic::{GeodesicSolver, distance_matrix};
+use keycomp_geodesic::{GeodesicParams, GeodesicSolver, QueueKind, distance_matrix};
 use keycomp_mesh::{Mesh, Point3, Topology, synth};
 use proptest::prelude::*;
 use rand::{Rng, SeedableRng};
@@ -215,4 +216,71 @@ fn non_manifold_fan_and_empty_matrix() {
     assert!((d[4] - (d[0].min(d[1]) + 0.5f64.hypot(1.0)).min(d[0] + 1.5f64.sqrt())).abs() < 1.0);
     let m = distance_matrix(&solver, &[]).unwrap();
     assert!(m.is_empty());
+}
+
+/// Distance fields from `sources` with the given queue (full fronts, then a K×K matrix).
+fn fields(mesh: &Mesh, queue: QueueKind, sources: &[u32]) -> (Vec<Vec<f64>>, Vec<f64>) {
+    let topo = Topology::new(mesh);
+    let params = GeodesicParams {
+        queue,
+        ..GeodesicParams::default()
+    };
+    let solver = GeodesicSolver::with_params(mesh, &topo, params).unwrap();
+    let mut ws = solver.workspace();
+    let full = sources
+        .iter()
+        .map(|&s| {
+            solver.solve(s, &mut ws).unwrap();
+            ws.distances().to_vec()
+        })
+        .collect();
+    (full, distance_matrix(&solver, sources).unwrap().into_vec())
+}
+
+fn meshes_for_queues() -> Vec<Mesh> {
+    let mut sheared = synth::grid(30, 30, 1.0 / 30.0);
+    for p in &mut sheared.positions {
+        p.x += 1.7 * p.y;
+    }
+    vec![
+        synth::icosphere(4, 1.0), // many exact ties
+        sheared,                  // obtuse corners split, ties
+        random_blob(3, 4),
+        random_terrain(8), // boundaries
+    ]
+}
+
+#[test]
+fn exact_bucket_queue_gives_the_heap_distances() {
+    for mesh in meshes_for_queues() {
+        let sources: Vec<u32> = (0..6)
+            .map(|i| i * 97 % mesh.num_vertices() as u32)
+            .collect();
+        let heap = fields(&mesh, QueueKind::Heap, &sources);
+        let buckets = fields(&mesh, QueueKind::Buckets, &sources);
+        assert_eq!(heap, buckets);
+    }
+}
+
+#[test]
+fn untidy_bucket_queue_stays_close_to_the_heap() {
+    for mesh in meshes_for_queues() {
+        let sources: Vec<u32> = (0..6)
+            .map(|i| i * 97 % mesh.num_vertices() as u32)
+            .collect();
+        let (heap, _) = fields(&mesh, QueueKind::Heap, &sources);
+        let (untidy, _) = fields(&mesh, QueueKind::Untidy { width: 0.1 }, &sources);
+        let (mut sum, mut count, mut max) = (0.0, 0, 0.0f64);
+        for (a, b) in heap.iter().flatten().zip(untidy.iter().flatten()) {
+            assert_eq!(a.is_finite(), b.is_finite());
+            if *a > 0.0 && a.is_finite() {
+                let r = (a - b).abs() / a;
+                sum += r;
+                max = max.max(r);
+                count += 1;
+            }
+        }
+        let mean = sum / count as f64;
+        assert!(mean < 1e-3 && max < 0.05, "mean {mean}, max {max}");
+    }
 }
