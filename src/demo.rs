@@ -44,6 +44,17 @@ pub fn run(args: Args) -> Result<ExitCode> {
         det.keypoints.len(),
         det.unclustered.len()
     )?;
+    let strongest: Vec<String> = det
+        .keypoints
+        .iter()
+        .take(10)
+        .map(|k| k.to_string())
+        .collect();
+    writeln!(
+        s,
+        "strongest Harris 3D keypoints (vertex ids, best first): {} …",
+        strongest.join(", ")
+    )?;
     writeln!(
         s,
         "{:>4}  {:>8}  {:>9}  {:>9}  {:>7}  protrusion (angle to its axis)",

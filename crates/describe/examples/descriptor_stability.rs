@@ -1,0 +1,94 @@
+//! How far apart corresponding key-components are in descriptor space, compared with
+//! non-corresponding ones, under the repeatability benchmark's transformations.
+//!
+//! For each null shape (TOSCA cat0, centaur0, dog0, KIDS 0001.null.0) and each transformation
+//! kind at strength 3 (seed 0), KC-1 components of the null and transformed shapes are described;
+//! each transformed component is carried to the null shape (`keycomp_bench::Pullback`) and paired
+//! with every null component: area IoU > 0.5 = corresponding, IoU < 0.05 = not corresponding.
+//! Prints the median descriptor distance of both groups per kind, as a markdown table.
+//!
+//! `cargo run --release -p keycomp-describe --example descriptor_stability [DATA_DIR]`
+
+use std::path::PathBuf;
+
+use keycomp_bench::{Kind, Pullback, overlap, transform};
+use keycomp_components::{DetectParams, detect};
+use keycomp_describe::{describe, distance};
+use keycomp_mesh::{Topology, geometry, read_mesh};
+
+fn median(mut v: Vec<f32>) -> Option<f32> {
+    v.sort_by(f32::total_cmp);
+    (!v.is_empty()).then(|| v[v.len() / 2])
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let data = PathBuf::from(
+        std::env::args()
+            .nth(1)
+            .unwrap_or_else(|| "../shared/data".into()),
+    );
+    let nulls = [
+        "tosca/cat0.off",
+        "tosca/centaur0.off",
+        "tosca/dog0.off",
+        "kids/0001.null.0.off",
+    ];
+    let params = DetectParams::default();
+    let mut rows: Vec<(String, Vec<f32>, Vec<f32>)> = Kind::ALL
+        .iter()
+        .map(|k| (k.to_string(), Vec::new(), Vec::new()))
+        .collect();
+    for name in nulls {
+        let path = data.join(name);
+        let null = match read_mesh(&path) {
+            Ok(m) => m.mesh,
+            Err(e) => {
+                eprintln!("skipping {name}: {e}");
+                continue;
+            }
+        };
+        let topo = Topology::new(&null);
+        let areas = geometry::vertex_areas(&null);
+        let dn = detect(&null, &params)?;
+        let descn = describe(&null, &dn)?;
+        for (ki, kind) in Kind::ALL.iter().enumerate() {
+            let Ok(t) = transform(&null, *kind, 3, 0) else {
+                eprintln!("{name}: {kind} does not apply");
+                continue;
+            };
+            let dt = detect(&t.mesh, &params)?;
+            let desct = describe(&t.mesh, &dt)?;
+            let pull = Pullback::new(&null, &topo, &t.map)?;
+            for (ct, c) in dt.components.iter().enumerate() {
+                let carried = pull.carry(&c.vertices);
+                for (cn, n) in dn.components.iter().enumerate() {
+                    let iou = overlap(&areas, &carried, &n.vertices);
+                    let d = distance(
+                        &desct.components[ct].descriptor,
+                        &descn.components[cn].descriptor,
+                    );
+                    if iou > 0.5 {
+                        rows[ki].1.push(d);
+                    } else if iou < 0.05 {
+                        rows[ki].2.push(d);
+                    }
+                }
+            }
+            eprintln!("{name}: {kind} done");
+        }
+    }
+    println!("| transformation (strength 3) | corresponding: n, median distance | non-corresponding: n, median distance |");
+    println!("|---|---:|---:|");
+    let fmt = |v: &Vec<f32>| match median(v.clone()) {
+        Some(m) => format!("{}, {m:.3}", v.len()),
+        None => "0, –".to_string(),
+    };
+    let (mut all_c, mut all_n) = (Vec::new(), Vec::new());
+    for (kind, c, n) in &rows {
+        println!("| {kind} | {} | {} |", fmt(c), fmt(n));
+        all_c.extend(c);
+        all_n.extend(n);
+    }
+    println!("| all | {} | {} |", fmt(&all_c), fmt(&all_n));
+    Ok(())
+}
