@@ -77,7 +77,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             eprintln!("{name}: {kind} done");
         }
     }
-    println!("| transformation (strength 3) | corresponding: n, median distance | non-corresponding: n, median distance |");
+    println!(
+        "| transformation (strength 3) | corresponding: n, median distance | non-corresponding: n, median distance |"
+    );
     println!("|---|---:|---:|");
     let fmt = |v: &Vec<f32>| match median(v.clone()) {
         Some(m) => format!("{}, {m:.3}", v.len()),
