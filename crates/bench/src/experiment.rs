@@ -12,6 +12,8 @@
 //!   per null are.
 //! - KIDS: `ID.null.0.EXT` is a null shape and `ID.isometry.K.EXT` (K = 1..5) its isometry of
 //!   strength K.
+//! - FAUST (with a `faust/` subfolder): subject 0's pose 0, `tr_reg_000`, is a null shape and
+//!   its poses `tr_reg_001`–`tr_reg_005` its isometries of strengths 1–5.
 //!
 //! Poses share the null shape's vertex numbering, so their map is the identity (a pose whose
 //! vertex count differs is skipped with a reason). Any other folder: every mesh file directly
@@ -153,6 +155,7 @@ pub fn discover(dir: &Path) -> Result<Vec<NullSpec>, BenchError> {
     }
     let tosca = dir.join("tosca");
     let kids = dir.join("kids");
+    let faust = dir.join("faust");
     let mut nulls = Vec::new();
     if tosca.is_dir() || kids.is_dir() {
         if tosca.is_dir() {
@@ -160,6 +163,9 @@ pub fn discover(dir: &Path) -> Result<Vec<NullSpec>, BenchError> {
         }
         if kids.is_dir() {
             nulls.extend(discover_kids(&kids)?);
+        }
+        if faust.is_dir() {
+            nulls.extend(discover_faust(&faust)?);
         }
     } else {
         for path in mesh_files(dir)? {
@@ -241,6 +247,30 @@ fn discover_kids(dir: &Path) -> Result<Vec<NullSpec>, BenchError> {
         });
     }
     Ok(out)
+}
+
+/// FAUST registrations `tr_reg_NNN` (subject NNN / 10, pose NNN % 10, shared vertex
+/// numbering): subject 0's pose 0 (`tr_reg_000`) is the null shape and its poses 1..=5
+/// (`tr_reg_001`..`tr_reg_005`) are isometries of strengths 1..=5 — "poses of one subject".
+fn discover_faust(dir: &Path) -> Result<Vec<NullSpec>, BenchError> {
+    let files = mesh_files(dir)?;
+    let find = |n: u32| files.iter().find(|p| stem(p) == format!("tr_reg_{n:03}"));
+    let Some(null) = find(0) else {
+        return Ok(Vec::new());
+    };
+    let poses = (1..=MAX_STRENGTH)
+        .filter_map(|k| {
+            find(u32::from(k)).map(|p| PoseSpec {
+                strength: k,
+                path: p.clone(),
+            })
+        })
+        .collect();
+    Ok(vec![NullSpec {
+        name: "faust-000".to_string(),
+        path: null.clone(),
+        poses,
+    }])
 }
 
 /// How many keypoints each shape gets (see the [module docs](self)).
@@ -1098,9 +1128,25 @@ mod tests {
         ] {
             std::fs::write(kids.join(f), "").unwrap();
         }
+        let faust = dir.path().join("faust");
+        std::fs::create_dir_all(&faust).unwrap();
+        for f in [
+            "tr_reg_000.ply",
+            "tr_reg_001.ply",
+            "tr_reg_003.ply",
+            "tr_reg_010.ply",
+        ] {
+            std::fs::write(faust.join(f), "").unwrap();
+        }
         let nulls = discover(dir.path()).unwrap();
         let names: Vec<&str> = nulls.iter().map(|n| n.name.as_str()).collect();
-        assert_eq!(names, ["cat0", "wolf0", "kids-0001"]);
+        assert_eq!(names, ["cat0", "wolf0", "kids-0001", "faust-000"]);
+        let fp: Vec<u8> = nulls[3].poses.iter().map(|p| p.strength).collect();
+        assert_eq!(
+            fp,
+            [1, 3],
+            "subject 0's poses 1 and 3; tr_reg_010 is subject 1"
+        );
         let cat: Vec<(u8, String)> = nulls[0]
             .poses
             .iter()
