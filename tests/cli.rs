@@ -1,35 +1,14 @@
 //! End-to-end tests of the `keycomp` binary: real processes, real files, real output.
 
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
 
 use keycomp_mesh::{read_mesh, synth, write_off};
 use serde_json::Value;
 
-fn keycomp(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_keycomp"))
-        .args(args)
-        .output()
-        .expect("the keycomp binary runs")
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn shared_data() -> Option<PathBuf> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data");
-    if p.is_dir() {
-        Some(p)
-    } else {
-        eprintln!("skipping: ../shared/data not found");
-        None
-    }
-}
+use common::{keycomp, shared_data, stderr, stdout};
 
 /// Writes a synthetic protrusion shape as OFF in `dir` and returns its path.
 fn protrusion_off(dir: &Path) -> PathBuf {

@@ -1,27 +1,15 @@
 //! End-to-end tests of `keycomp transform` and `keycomp bench repeatability`: the real binary
 //! on files written here.
 
+mod common;
+
 use std::fs;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
 use keycomp_mesh::{Mesh, Point3, read_mesh, synth, write_off};
 use serde_json::Value;
 
-fn keycomp(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_keycomp"))
-        .args(args)
-        .output()
-        .expect("the keycomp binary runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().expect("utf8 path")
-}
+use common::{keycomp, s, stderr};
 
 /// Two spheres 0.05 apart (1,284 vertices): parts close in space but far apart along the
 /// surface, so `topology` finds weld sites.

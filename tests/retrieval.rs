@@ -1,36 +1,14 @@
 //! End-to-end retrieval: `keycomp index add`, `query`, `index list|stats|verify|remove` on
 //! real shapes (skipped with a message when `../shared/data` is absent) and on synthetic ones.
 
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
 use keycomp_mesh::{Point3, Vector3, cut, geometry, read_mesh, synth, write_off};
 use serde_json::Value;
 
-fn keycomp(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_keycomp"))
-        .args(args)
-        .output()
-        .expect("the keycomp binary runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().expect("utf8 path")
-}
-
-fn shared_data() -> Option<PathBuf> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data");
-    if p.is_dir() {
-        Some(p)
-    } else {
-        eprintln!("skipping: ../shared/data not found");
-        None
-    }
-}
+use common::{keycomp, s, shared_data, stderr};
 
 fn class_of(path: &str) -> String {
     let name = Path::new(path)
