@@ -14,6 +14,7 @@ mod keypoints;
 mod match_cmd;
 mod output;
 mod query;
+mod render_cmd;
 mod repeatability;
 mod transform;
 
@@ -48,6 +49,9 @@ enum Command {
     /// Rank the indexed shapes against a query mesh (whole shape or fragment).
     #[command(after_help = query::EXAMPLES)]
     Query(query::Args),
+    /// Render a shaded PNG of a mesh, with key-components, response or keypoints coloured.
+    #[command(after_help = render_cmd::EXAMPLES)]
+    Render(render_cmd::Args),
     /// Match two meshes part to part: key-components paired by descriptor, checked for layout.
     #[command(name = "match", after_help = match_cmd::EXAMPLES)]
     Match(match_cmd::Args),
@@ -69,6 +73,7 @@ fn main() -> ExitCode {
         Command::Match(args) => match_cmd::run(args),
         Command::Index(cmd) => index_cmd::run(cmd),
         Command::Query(args) => query::run(args),
+        Command::Render(args) => render_cmd::run(args),
         Command::Bench(cmd) => bench::run(cmd),
     };
     match result {

@@ -36,8 +36,8 @@ with the same parameters takes seconds.";
 /// Arguments of `keycomp bench repeatability`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Null shapes: a folder laid out like ../shared/data (TOSCA pose 0 and KIDS null.0 are null
-    /// shapes, the other poses are their isometry transformations), or any folder whose mesh
+    /// Null shapes: a folder laid out like ../shared/data (TOSCA pose 0, KIDS null.0 and FAUST
+    /// tr_reg_000 are null shapes, the other poses are their isometry transformations), or any folder whose mesh
     /// files are all null shapes (no isometry) [default: ../shared/data].
     #[arg(long, value_name = "DIR")]
     pub data: Option<PathBuf>,

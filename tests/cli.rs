@@ -325,3 +325,39 @@ fn match_pairs_a_shape_with_its_moved_copy() {
     assert!((v["scale"].as_f64().expect("scale") - 1.0).abs() < 1e-3);
     assert!(read_mesh(&pa).is_ok() && read_mesh(&pb).is_ok());
 }
+
+#[test]
+fn render_writes_png_pictures_and_rejects_bad_options() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = protrusion_off(dir.path());
+    let p = path.to_str().expect("utf8");
+    for (mode, name) in [
+        ("--response", "response.png"),
+        ("--keypoints", "keypoints.png"),
+        ("--size", "plain.png"),
+    ] {
+        let out = dir.path().join(name);
+        let mut args = vec!["render", p, "-o", out.to_str().expect("utf8")];
+        if mode == "--size" {
+            args.extend(["--size", "200", "--view", "-40,10"]);
+        } else {
+            args.push(mode);
+        }
+        let o = keycomp(&args);
+        assert!(o.status.success(), "{mode}: {}", stderr(&o));
+        let bytes = std::fs::read(&out).expect("png written");
+        assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "{mode}: not a PNG");
+        // IHDR width/height (big endian at bytes 16..24)
+        let w = u32::from_be_bytes([bytes[16], bytes[17], bytes[18], bytes[19]]);
+        assert_eq!(w, if mode == "--size" { 200 } else { 512 });
+    }
+    for args in [
+        vec!["render", p, "-o", "x.jpg"],
+        vec!["render", p, "-o", "x.png", "--view", "1,2,3"],
+        vec!["render", p, "-o", "x.png", "--response", "--keypoints"],
+    ] {
+        let o = keycomp(&args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}");
+    }
+    assert!(!Path::new("x.png").exists() && !Path::new("x.jpg").exists());
+}

@@ -1,0 +1,105 @@
+//! `keycomp render MESH -o OUT.png`: a shaded picture of a mesh, optionally with its
+//! key-components, its Harris response or its keypoints coloured.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::{Context, Result, bail};
+use keycomp_components::detect;
+use keycomp_harris::HarrisParams;
+use keycomp_mesh::{Topology, read_mesh};
+use keycomp_render::{RenderParams, UpAxis, render};
+
+use crate::detect::{DetectArgs, component_colors};
+use crate::{colors, output};
+
+pub const EXAMPLES: &str = "Examples:
+  keycomp render cat0.off -o cat0.png --components
+  keycomp render nefertiti.obj -o nefertiti.png --response --up z --size 1024
+  keycomp render horse.ply -o horse.png --keypoints --view 120,15";
+
+/// Arguments of `keycomp render`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Mesh file.
+    pub mesh: PathBuf,
+    /// Output PNG file.
+    #[arg(short = 'o', long = "out", value_name = "OUT.png")]
+    pub out: PathBuf,
+    /// Colour each key-component (detection with the options below).
+    #[arg(long, group = "mode")]
+    pub components: bool,
+    /// Colour the Harris 3D response by rank (dark blue low, yellow high).
+    #[arg(long, group = "mode")]
+    pub response: bool,
+    /// Mark the Harris 3D keypoints and their 1-ring in magenta.
+    #[arg(long, group = "mode")]
+    pub keypoints: bool,
+    /// Image width and height in pixels.
+    #[arg(long, default_value_t = 512, value_name = "PX")]
+    pub size: u32,
+    /// View direction: azimuth and elevation in degrees.
+    #[arg(long, value_name = "AZ,EL", value_delimiter = ',', default_values_t = [30.0, 20.0], allow_hyphen_values = true)]
+    pub view: Vec<f64>,
+    /// Which axis points up in the file: y (most scans and OBJ files) or z (CAD, some scans).
+    #[arg(long, default_value = "y", value_parser = ["y", "z"])]
+    pub up: String,
+    #[command(flatten)]
+    pub detect: DetectArgs,
+}
+
+pub fn run(args: Args) -> Result<ExitCode> {
+    if !args
+        .out
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"))
+    {
+        bail!("{}: the output must be a .png file", args.out.display());
+    }
+    let [azimuth, elevation] = args.view[..] else {
+        bail!("--view takes two numbers, azimuth and elevation in degrees: e.g. --view 30,20");
+    };
+    let mesh = read_mesh(&args.mesh)?.mesh;
+    let params = args.detect.params();
+    let cols = if args.components {
+        let det = detect(&mesh, &params)
+            .with_context(|| format!("{}: key-component detection failed", args.mesh.display()))?;
+        component_colors(&mesh, &det)
+    } else if args.response || args.keypoints {
+        let topo = Topology::new(&mesh);
+        let h = keycomp_harris::detect(
+            &mesh,
+            &topo,
+            &args.detect.harris.params(HarrisParams::default()),
+        )
+        .with_context(|| format!("{}: Harris 3D failed", args.mesh.display()))?;
+        if args.response {
+            colors::by_rank(&h.response)
+        } else {
+            let mut c = vec![colors::GREY; mesh.num_vertices()];
+            colors::highlight(&mut c, &topo, &h.keypoints);
+            c
+        }
+    } else {
+        vec![colors::GREY; mesh.num_vertices()]
+    };
+    let rp = RenderParams {
+        size: args.size,
+        azimuth_deg: azimuth,
+        elevation_deg: elevation,
+        up: if args.up == "z" { UpAxis::Z } else { UpAxis::Y },
+        ..RenderParams::default()
+    };
+    let image = render(&mesh, &cols, &rp)
+        .with_context(|| format!("{}: rendering failed", args.mesh.display()))?;
+    image
+        .write_png(&args.out)
+        .with_context(|| format!("{}: cannot write the image", args.out.display()))?;
+    output::print_text(&format!(
+        "wrote {} ({}×{} px)\n",
+        args.out.display(),
+        image.width(),
+        image.height()
+    ))?;
+    Ok(ExitCode::SUCCESS)
+}
