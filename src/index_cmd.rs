@@ -3,7 +3,6 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 use anyhow::{Context, Result, bail};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -113,9 +112,12 @@ fn collect(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
     Ok(out)
 }
 
-/// Reads, detects and describes one file into an index record.
-pub fn record_of(path: &Path, params: &DetectParams) -> Result<ShapeRecord<DIM>> {
-    let hash = ContentHash::of_file(path)?;
+/// Reads, detects and describes one file, whose content hash is `hash`, into an index record.
+pub fn record_of(
+    path: &Path,
+    hash: ContentHash,
+    params: &DetectParams,
+) -> Result<ShapeRecord<DIM>> {
     let a = analyse(path, params)?;
     Ok(ShapeRecord {
         path: path.to_path_buf(),
@@ -171,37 +173,32 @@ fn add(args: AddArgs) -> Result<ExitCode> {
     let bar = progress(files.len() as u64, "indexing");
     let (mut added, mut replaced, mut unchanged) = (0usize, 0usize, 0usize);
     let mut failed: Vec<(PathBuf, String)> = Vec::new();
-    let done = AtomicUsize::new(0);
     for chunk in files.chunks(BATCH) {
-        // files already indexed with the same content are skipped before any work
-        let todo: Vec<&PathBuf> = chunk
+        // Each file is hashed once; one already indexed with the same content is skipped
+        // before any other work.
+        let known: Vec<Option<ContentHash>> = chunk
             .iter()
-            .filter(|p| {
-                let same = writer
-                    .lookup(&canonical_path(p))
-                    .zip(ContentHash::of_file(p).ok())
-                    .is_some_and(|((_, old), new)| old == new);
-                if same {
-                    unchanged += 1;
-                    bar.inc(1);
-                }
-                !same
-            })
+            .map(|p| writer.lookup(&canonical_path(p)).map(|(_, h)| h))
             .collect();
-        let results: Vec<(PathBuf, Result<ShapeRecord<DIM>>)> = todo
+        let results: Vec<(PathBuf, Option<Result<ShapeRecord<DIM>>>)> = chunk
             .par_iter()
-            .map(|p| {
-                let r = record_of(p, &params);
-                done.fetch_add(1, Ordering::Relaxed);
+            .zip(known)
+            .map(|(p, old)| {
+                let r = match ContentHash::of_file(p) {
+                    Err(e) => Some(Err(e.into())),
+                    Ok(hash) if old == Some(hash) => None,
+                    Ok(hash) => Some(record_of(p, hash, &params)),
+                };
                 bar.inc(1);
-                ((*p).clone(), r)
+                (p.clone(), r)
             })
             .collect();
         let mut records = Vec::new();
         for (p, r) in results {
             match r {
-                Ok(rec) => records.push(rec),
-                Err(e) => {
+                None => unchanged += 1,
+                Some(Ok(rec)) => records.push(rec),
+                Some(Err(e)) => {
                     bar.suspend(|| eprintln!("skipped {}: {e:#}", p.display()));
                     failed.push((p, format!("{e:#}")));
                 }
