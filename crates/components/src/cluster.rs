@@ -66,7 +66,19 @@ pub struct ClusterParams {
     pub n_min: usize,
     /// Number of passes `Iter` (≥ 1; default 10). The paper observed convergence in 6–8.
     pub iterations: usize,
+    /// Not in the paper: when set to `K_ref` (≥ 1), `N` is scaled down for point sets smaller
+    /// than `K_ref`: `N_eff = clamp(round(N·K/K_ref), N_FLOOR, N)` for `K` points (see
+    /// [`ClusterParams::effective_n_min`]). The paper's `N` = 30 was chosen for meshes of
+    /// 20k–50k vertices, whose 1 % budget gives 200–500 keypoints; a 7k-vertex mesh gets 69
+    /// keypoints, and then no group of salient points reaches 30, so it has no key-component at
+    /// all. Scaling `N` with `K` keeps the required share of the keypoints instead. Default
+    /// `None` (the paper's fixed `N`); the retrieval commands use it (see `keycomp index add
+    /// --help`).
+    pub n_reference: Option<usize>,
 }
+
+/// Smallest `N` that [`ClusterParams::n_reference`] scales down to.
+pub const N_FLOOR: usize = 5;
 
 impl Default for ClusterParams {
     fn default() -> Self {
@@ -75,6 +87,7 @@ impl Default for ClusterParams {
             t: 0.30,
             n_min: 30,
             iterations: 10,
+            n_reference: None,
         }
     }
 }
@@ -111,7 +124,28 @@ impl ClusterParams {
                 "use at least 1 pass (the paper uses 10)",
             ));
         }
+        if self.n_reference == Some(0) {
+            return Err(ComponentsError::param(
+                "cluster.n_reference",
+                0,
+                "must be at least 1 keypoint (e.g. 300), or absent for the paper's fixed N",
+            ));
+        }
         Ok(())
+    }
+
+    /// The minimum cluster size used for `points` points: `n_min`, or with
+    /// [`ClusterParams::n_reference`] = `K_ref` and `points < K_ref`,
+    /// `clamp(round(n_min·points/K_ref), N_FLOOR, n_min)` (never above `n_min`, so an `n_min`
+    /// below [`N_FLOOR`] stays as it is).
+    pub fn effective_n_min(&self, points: usize) -> usize {
+        match self.n_reference {
+            Some(k_ref) if k_ref > 0 && points < k_ref => {
+                let scaled = (self.n_min as f64 * points as f64 / k_ref as f64).round() as usize;
+                scaled.max(N_FLOOR).min(self.n_min)
+            }
+            _ => self.n_min,
+        }
     }
 }
 
@@ -127,7 +161,8 @@ pub struct Cluster {
 /// The result of [`adaptive_clustering`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct Clustering {
-    /// Surviving clusters, in order of creation; each has at least `n_min` members.
+    /// Surviving clusters, in order of creation; each has at least
+    /// [`ClusterParams::effective_n_min`] members.
     pub clusters: Vec<Cluster>,
     /// Points in no cluster, increasing.
     pub unassigned: Vec<usize>,
@@ -150,6 +185,7 @@ pub fn adaptive_clustering(
             index,
         });
     }
+    let n_min = params.effective_n_min(points.len());
     let mut pending: Vec<usize> = (0..points.len()).collect();
     let mut clusters: Vec<Cluster> = Vec::new();
     let mut waiting = Vec::with_capacity(points.len());
@@ -178,7 +214,7 @@ pub fn adaptive_clustering(
         // update
         returned.clear();
         clusters.retain_mut(|c| {
-            if c.members.len() >= params.n_min {
+            if c.members.len() >= n_min {
                 c.members.sort_unstable();
                 c.centroid = mean(points, &c.members);
                 true
@@ -251,7 +287,46 @@ mod tests {
             t,
             n_min,
             iterations: 10,
+            n_reference: None,
         }
+    }
+
+    #[test]
+    fn n_scales_with_the_number_of_points_below_the_reference() {
+        let mut p = params(0.15, 0.30, 30);
+        assert_eq!(p.effective_n_min(69), 30); // the paper's fixed N
+        p.n_reference = Some(300);
+        assert_eq!(p.effective_n_min(300), 30);
+        assert_eq!(p.effective_n_min(1000), 30);
+        assert_eq!(p.effective_n_min(150), 15);
+        assert_eq!(p.effective_n_min(69), 7); // 6.9 rounds to 7
+        assert_eq!(p.effective_n_min(20), N_FLOOR);
+        p.n_min = 3; // never raised above the user's N
+        assert_eq!(p.effective_n_min(20), 3);
+        p.n_reference = Some(0);
+        assert!(p.validate().is_err());
+    }
+
+    #[test]
+    fn a_small_point_set_keeps_its_groups_with_a_scaled_n() {
+        // two tight groups of 8 points, far apart: dissolved with N = 30, kept when N is
+        // scaled to 16 points with K_ref = 60 (N_eff = round(30·16/60) = 8)
+        let mut pts = Vec::new();
+        for g in 0..2 {
+            for i in 0..8 {
+                let a = i as f64 * std::f64::consts::TAU / 8.0;
+                pts.push([g as f64 + 0.02 * a.cos(), 0.02 * a.sin()]);
+            }
+        }
+        let mut p = params(0.15, 0.30, 30);
+        let res = adaptive_clustering(&pts, &p).unwrap();
+        assert!(res.clusters.is_empty());
+        assert_eq!(res.unassigned.len(), 16);
+        p.n_reference = Some(60);
+        let res = adaptive_clustering(&pts, &p).unwrap();
+        assert_eq!(res.clusters.len(), 2);
+        assert_eq!(res.clusters[0].members, (0..8).collect::<Vec<_>>());
+        assert_eq!(res.clusters[1].members, (8..16).collect::<Vec<_>>());
     }
 
     /// `n` points uniformly in a disc of radius `rad` around `c`.

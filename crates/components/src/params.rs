@@ -87,6 +87,7 @@ impl Preset {
             t,
             n_min,
             iterations: 10,
+            n_reference: None,
         }
     }
 
@@ -139,6 +140,7 @@ mod tests {
             t,
             n_min: n,
             iterations: 10,
+            n_reference: None,
         };
         assert_eq!(Preset::Kc1.cluster_params(), p(0.15, 0.30, 30));
         assert_eq!(Preset::Kc2.cluster_params(), p(0.15, 0.30, 20));

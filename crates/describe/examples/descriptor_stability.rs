@@ -7,13 +7,14 @@
 //! with every null component: area IoU > 0.5 = corresponding, IoU < 0.05 = not corresponding.
 //! Prints the median descriptor distance of both groups per kind, as a markdown table.
 //!
-//! `cargo run --release -p keycomp-describe --example descriptor_stability [DATA_DIR]`
+//! `cargo run --release -p keycomp-describe --example descriptor_stability [DATA_DIR [SMOOTHING]]`
+//! (SMOOTHING: Taubin λ|μ pairs before describing, default 30 as in `DescribeParams`).
 
 use std::path::PathBuf;
 
 use keycomp_bench::{Kind, Pullback, overlap, transform};
 use keycomp_components::{DetectParams, detect};
-use keycomp_describe::{describe, distance};
+use keycomp_describe::{DescribeParams, describe_with, distance};
 use keycomp_mesh::{Topology, geometry, read_mesh};
 
 fn median(mut v: Vec<f32>) -> Option<f32> {
@@ -33,6 +34,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "tosca/dog0.off",
         "kids/0001.null.0.off",
     ];
+    let describe_params = DescribeParams {
+        smoothing_iterations: match std::env::args().nth(2) {
+            Some(s) => s.parse()?,
+            None => DescribeParams::default().smoothing_iterations,
+        },
+        ..DescribeParams::default()
+    };
+    let describe = |m: &keycomp_mesh::Mesh, d: &keycomp_components::Detection| {
+        describe_with(m, d, &describe_params)
+    };
     let params = DetectParams::default();
     let mut rows: Vec<(String, Vec<f32>, Vec<f32>)> = Kind::ALL
         .iter()
