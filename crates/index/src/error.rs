@@ -145,8 +145,9 @@ pub enum IndexError {
     },
     /// A file was written in a format version this build cannot read.
     #[error(
-        "index file {} is incompatible: format version {found}, this keycomp reads {supported}; {}",
+        "index file {} is incompatible: format version {found}, this keycomp reads versions {} to {supported}; {}",
         path.display(),
+        crate::OLDEST_READABLE_VERSION,
         if *found > *supported {
             "upgrade keycomp, or rebuild the index with this version (`keycomp index add` into a new directory)"
         } else {
@@ -158,7 +159,7 @@ pub enum IndexError {
         path: PathBuf,
         /// Format version found in the file.
         found: u32,
-        /// Format version this build reads and writes.
+        /// Newest format version this build reads (and the one it writes).
         supported: u32,
     },
     /// The index holds descriptors of another length than this build uses.
@@ -206,6 +207,21 @@ pub enum IndexError {
         /// What is wrong with it.
         reason: String,
     },
+    /// The index's descriptors were made another way than the caller's (see
+    /// [`crate::IndexWriter::ensure_profile`]).
+    #[error(
+        "index {} holds descriptors made another way ({}); this keycomp makes them as: {requested}. Rebuild the index (delete the directory and `keycomp index add` again) or use another --index directory",
+        dir.display(),
+        if found.is_empty() { "no profile: written by an older keycomp, format 1".to_string() } else { format!("index profile: {found}") }
+    )]
+    ProfileMismatch {
+        /// The index directory.
+        dir: PathBuf,
+        /// The index's profile (empty: none recorded).
+        found: String,
+        /// The caller's profile.
+        requested: String,
+    },
     /// A query vector cannot be searched for.
     #[error("invalid query: {reason}")]
     InvalidQuery {
@@ -240,7 +256,9 @@ impl IndexError {
             | IndexError::Incompatible { path, .. }
             | IndexError::DimensionMismatch { path, .. }
             | IndexError::InvalidRecord { path, .. } => Some(path),
-            IndexError::NotAnIndex { dir } | IndexError::Locked { dir, .. } => Some(dir),
+            IndexError::NotAnIndex { dir }
+            | IndexError::Locked { dir, .. }
+            | IndexError::ProfileMismatch { dir, .. } => Some(dir),
             IndexError::MissingSegment { segment, .. } => Some(segment),
             IndexError::InvalidQuery { .. } => None,
         }

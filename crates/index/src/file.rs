@@ -70,6 +70,8 @@ pub struct Opened {
     pub bytes: Vec<u8>,
     /// The checksum from the footer.
     pub checksum: u64,
+    /// The format version from the footer.
+    pub version: u32,
 }
 
 impl Opened {
@@ -92,8 +94,8 @@ fn le_u32(b: &[u8]) -> u32 {
 }
 
 /// Checks the footer of `bytes` (read from `path`): length, magic, checksum, payload length,
-/// version (must be `version`), kind (must be `kind`).
-pub fn unseal(path: &Path, bytes: Vec<u8>, kind: u32, version: u32) -> Result<Opened> {
+/// version (must be in [`crate::OLDEST_READABLE_VERSION`]`..=newest`), kind (must be `kind`).
+pub fn unseal(path: &Path, bytes: Vec<u8>, kind: u32, newest: u32) -> Result<Opened> {
     let len = bytes.len();
     if len == 0 {
         return Err(IndexError::corrupt(path, CorruptKind::Empty));
@@ -127,11 +129,11 @@ pub fn unseal(path: &Path, bytes: Vec<u8>, kind: u32, version: u32) -> Result<Op
         ));
     }
     let found_version = le_u32(&footer[12..16]);
-    if found_version != version {
+    if !(crate::OLDEST_READABLE_VERSION..=newest).contains(&found_version) {
         return Err(IndexError::Incompatible {
             path: path.to_path_buf(),
             found: found_version,
-            supported: version,
+            supported: newest,
         });
     }
     let found_kind = le_u32(&footer[8..12]);
@@ -147,6 +149,7 @@ pub fn unseal(path: &Path, bytes: Vec<u8>, kind: u32, version: u32) -> Result<Op
     Ok(Opened {
         bytes,
         checksum: stored,
+        version: found_version,
     })
 }
 
@@ -243,7 +246,7 @@ mod tests {
         ));
         assert!(
             e.to_string()
-                .contains("format version 3, this keycomp reads 1")
+                .contains("format version 3, this keycomp reads versions 1 to 1")
         );
     }
 }

@@ -53,9 +53,14 @@ pub use record::{ComponentRecord, ContentHash, ShapeId, ShapeRecord, canonical_p
 pub use verify::{VerifyReport, verify};
 pub use writer::{AddOutcome, AddSummary, IndexWriter};
 
-/// The on-disk format version this build reads and writes. Bumped on any incompatible change;
-/// files of another version are refused with [`IndexError::Incompatible`].
-pub const FORMAT_VERSION: u32 = 1;
+/// The on-disk format version this build writes. Bumped on any incompatible change; files of a
+/// version outside [`OLDEST_READABLE_VERSION`]`..=FORMAT_VERSION` are refused with
+/// [`IndexError::Incompatible`].
+pub const FORMAT_VERSION: u32 = 2;
+
+/// Oldest format version this build still reads (version 1 has no manifest profile; see
+/// `index/README.md`, *Versions*).
+pub const OLDEST_READABLE_VERSION: u32 = 1;
 
 /// Default index directory, relative to the working directory.
 pub const DEFAULT_INDEX_DIR: &str = "index";

@@ -44,6 +44,36 @@ pub struct Manifest {
     pub segments: Vec<SegmentEntry>,
     /// Ids of removed or replaced shapes that still sit in a live segment; sorted, unique.
     pub tombstones: Vec<ShapeId>,
+    /// How the descriptors were made (format 2): free text set by the program that fills the
+    /// index, compared before adding or querying so that descriptors computed differently
+    /// are never mixed or compared. Empty for an index without a profile yet, and for every
+    /// format-1 index.
+    pub profile: String,
+}
+
+/// The manifest payload of format version 1 (no profile).
+#[derive(Deserialize)]
+struct ManifestV1 {
+    generation: u64,
+    dim: u32,
+    next_shape_id: u64,
+    next_segment: u64,
+    segments: Vec<SegmentEntry>,
+    tombstones: Vec<ShapeId>,
+}
+
+impl From<ManifestV1> for Manifest {
+    fn from(m: ManifestV1) -> Self {
+        Manifest {
+            generation: m.generation,
+            dim: m.dim,
+            next_shape_id: m.next_shape_id,
+            next_segment: m.next_segment,
+            segments: m.segments,
+            tombstones: m.tombstones,
+            profile: String::new(),
+        }
+    }
 }
 
 /// File name of segment `number`: `seg-NNNNNN.kcs` (at least 6 digits).
@@ -76,6 +106,7 @@ impl Manifest {
             next_segment: 0,
             segments: Vec::new(),
             tombstones: Vec::new(),
+            profile: String::new(),
         }
     }
 
@@ -111,9 +142,15 @@ impl Manifest {
         let opened = file::unseal(path, bytes, KIND_MANIFEST, FORMAT_VERSION)?;
         let payload = opened.payload();
         let malformed = |msg: String| IndexError::corrupt(path, CorruptKind::Malformed(msg));
-        let (m, used): (Manifest, usize) =
+        let (m, used): (Manifest, usize) = if opened.version == 1 {
+            let (m, used): (ManifestV1, usize) =
+                bincode::serde::decode_from_slice(payload, bincode_config())
+                    .map_err(|e| malformed(e.to_string()))?;
+            (m.into(), used)
+        } else {
             bincode::serde::decode_from_slice(payload, bincode_config())
-                .map_err(|e| malformed(e.to_string()))?;
+                .map_err(|e| malformed(e.to_string()))?
+        };
         if used != payload.len() {
             return Err(malformed(format!(
                 "{} unexpected bytes after the manifest",
@@ -187,6 +224,7 @@ mod tests {
             components: 50,
         });
         m.tombstones = vec![ShapeId(5)];
+        m.profile = "kc1".into();
         let b = m.to_bytes().unwrap();
         let mut want = Vec::new();
         want.extend_from_slice(&2u64.to_le_bytes());
@@ -199,6 +237,8 @@ mod tests {
         }
         want.extend_from_slice(&1u64.to_le_bytes());
         want.extend_from_slice(&5u64.to_le_bytes());
+        want.extend_from_slice(&3u64.to_le_bytes());
+        want.extend_from_slice(b"kc1");
         assert_eq!(&b[..b.len() - crate::file::FOOTER_LEN], &want[..]);
         let f = &b[want.len()..];
         assert_eq!(&f[0..8], &(want.len() as u64).to_le_bytes());
@@ -223,6 +263,7 @@ mod tests {
             components: 20,
         });
         m.tombstones = vec![ShapeId(1), ShapeId(7)];
+        m.profile = "descriptors made some way".into();
         m.write(dir.path()).unwrap();
         assert_eq!(Manifest::read(dir.path(), Some(32)).unwrap(), m);
         assert!(matches!(

@@ -239,6 +239,12 @@ impl<const D: usize> IndexReader<D> {
         &self.dir
     }
 
+    /// How the descriptors of this index were made (empty when no profile is recorded, as in
+    /// every format-1 index; see [`crate::IndexWriter::ensure_profile`]).
+    pub fn profile(&self) -> &str {
+        &self.manifest.profile
+    }
+
     /// Manifest generation of this snapshot.
     pub fn generation(&self) -> u64 {
         self.manifest.generation

@@ -82,6 +82,38 @@ pub struct IndexWriter<const D: usize> {
 }
 
 impl<const D: usize> IndexWriter<D> {
+    /// The index's profile: how its descriptors were made (empty when none is recorded; see
+    /// [`IndexWriter::ensure_profile`]).
+    pub fn profile(&self) -> &str {
+        &self.manifest.profile
+    }
+
+    /// Makes sure the index holds descriptors made as `profile` says (free text, e.g. the
+    /// descriptor version and detection parameters; not empty). An index without shapes takes
+    /// the profile (written with the next commit); an index whose profile equals it is
+    /// accepted; any other, including a format-1 index with shapes (no profile), gives
+    /// [`IndexError::ProfileMismatch`] and nothing is changed.
+    pub fn ensure_profile(&mut self, profile: &str) -> Result<()> {
+        if profile.is_empty() {
+            return Err(IndexError::InvalidRecord {
+                path: self.dir.clone(),
+                reason: "the profile must not be empty".into(),
+            });
+        }
+        if self.manifest.profile == profile {
+            return Ok(());
+        }
+        if self.live.is_empty() {
+            self.manifest.profile = profile.to_string();
+            return Ok(());
+        }
+        Err(IndexError::ProfileMismatch {
+            dir: self.dir.clone(),
+            found: self.manifest.profile.clone(),
+            requested: profile.to_string(),
+        })
+    }
+
     /// Opens the index at `dir` for writing, creating the directory and an empty index if
     /// there is none. Blocks while another writer holds the lock.
     ///

@@ -192,7 +192,7 @@ fn newer_format_version_is_incompatible() {
             e,
             IndexError::Incompatible {
                 found: 3,
-                supported: 1,
+                supported: keycomp_index::FORMAT_VERSION,
                 ..
             }
         ),
@@ -201,7 +201,7 @@ fn newer_format_version_is_incompatible() {
     names(&e, &p);
     let msg = e.to_string();
     assert!(
-        msg.contains("incompatible: format version 3, this keycomp reads 1"),
+        msg.contains("incompatible: format version 3, this keycomp reads versions 1 to 2"),
         "{msg}"
     );
     assert!(msg.contains("upgrade keycomp"), "{msg}");

@@ -1,8 +1,8 @@
 //! Indexes written by released format versions still open and read the same.
 //!
-//! `tests/fixtures/v1/` was written by format version 1 (D = 8, synthetic seed 21: shapes
-//! 0..4 in two segments, shape 1 removed); `tests/fixtures/v1.json` holds the live records it
-//! must decode to (JSON, so the check does not depend on the random generator staying the
+//! `tests/fixtures/vN/` was written by format version N (D = 8, synthetic seed 21: shapes
+//! 0..4 in two segments, shape 1 removed; from version 2 on, with the profile
+//! [`FIXTURE_PROFILE`]); `tests/fixtures/vN.json` holds the live records it must decode to (JSON, so the check does not depend on the random generator staying the
 //! same). Write a new version's fixture with
 //! `cargo test -p keycomp-index --test fixture -- --ignored write_fixture`; never rewrite an
 //! old one.
@@ -15,6 +15,9 @@ use keycomp_index::{IndexReader, IndexWriter, ShapeRecord, synthetic, verify};
 
 const D: usize = 8;
 
+/// The profile of the version-2 fixture.
+const FIXTURE_PROFILE: &str = "fixture: synthetic records, seed 21";
+
 fn fixture(version: u32) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(format!("tests/fixtures/v{version}"))
 }
@@ -23,6 +26,7 @@ fn fixture(version: u32) -> PathBuf {
 fn format_v1_fixture_still_opens() {
     let dir = fixture(1);
     let r = IndexReader::<D>::open(&dir).unwrap();
+    assert_eq!(r.profile(), "", "format 1 has no profile");
     let json = std::fs::read_to_string(fixture(1).with_extension("json")).unwrap();
     let want: Vec<ShapeRecord<D>> = serde_json::from_str(&json).unwrap();
     assert_eq!(want.len(), 3);
@@ -34,11 +38,58 @@ fn format_v1_fixture_still_opens() {
 }
 
 #[test]
+fn format_v2_fixture_still_opens() {
+    let dir = fixture(2);
+    let r = IndexReader::<D>::open(&dir).unwrap();
+    assert_eq!(r.profile(), FIXTURE_PROFILE);
+    let json = std::fs::read_to_string(fixture(2).with_extension("json")).unwrap();
+    let want: Vec<ShapeRecord<D>> = serde_json::from_str(&json).unwrap();
+    let got: Vec<_> = r.shapes().iter().map(|s| s.record.clone()).collect();
+    assert_eq!(got, want);
+    assert_eq!(r.stats().segments, 2);
+    assert!(verify::<D>(&dir).unwrap().is_ok());
+}
+
+/// A format-1 index with shapes has no profile: adding to it under a profile is refused and
+/// leaves it untouched; removing from it still works and rewrites it as format 2, keeping the
+/// (empty) profile.
+#[test]
+fn format_v1_index_refuses_a_profile_but_stays_usable() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("v1");
+    std::fs::create_dir(&dir).unwrap();
+    for e in std::fs::read_dir(fixture(1)).unwrap() {
+        let e = e.unwrap();
+        std::fs::copy(e.path(), dir.join(e.file_name())).unwrap();
+    }
+    let before = std::fs::read(dir.join(keycomp_index::MANIFEST_NAME)).unwrap();
+    let mut w = IndexWriter::<D>::create_or_open(&dir).unwrap();
+    let e = w.ensure_profile("kc1").unwrap_err();
+    assert!(
+        matches!(&e, keycomp_index::IndexError::ProfileMismatch { found, .. } if found.is_empty()),
+        "{e}"
+    );
+    assert!(e.to_string().contains("older keycomp"), "{e}");
+    assert!(e.to_string().contains("Rebuild"), "{e}");
+    assert_eq!(
+        std::fs::read(dir.join(keycomp_index::MANIFEST_NAME)).unwrap(),
+        before
+    );
+    w.remove(&[synthetic::record::<D>(21, 0).canonical_path])
+        .unwrap();
+    drop(w);
+    let r = IndexReader::<D>::open(&dir).unwrap();
+    assert_eq!(r.shapes().len(), 2);
+    assert_eq!(r.profile(), "");
+}
+
+#[test]
 #[ignore = "writes the current version's fixture into the source tree"]
 fn write_fixture() {
     let dir = fixture(keycomp_index::FORMAT_VERSION);
     let _ = std::fs::remove_dir_all(&dir);
     let mut w = IndexWriter::<D>::create_or_open(&dir).unwrap();
+    w.ensure_profile(FIXTURE_PROFILE).unwrap();
     w.add_batch(synthetic::records::<D>(21, 0..2)).unwrap();
     w.add_batch(synthetic::records::<D>(21, 2..4)).unwrap();
     w.remove(&[synthetic::record::<D>(21, 1).canonical_path])
