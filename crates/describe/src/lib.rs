@@ -54,8 +54,15 @@ use serde::{Deserialize, Serialize};
 
 pub mod smooth;
 
+/// Version of the descriptor's definition: bumped whenever the same mesh and detection would
+/// give other numbers, so that an index never compares descriptors made two ways (the CLI
+/// records it in the index's profile). 1: session 1 (raw surface); 2: smoothed surface with
+/// the Harris response recomputed there.
+pub const DESCRIPTOR_VERSION: u32 = 2;
+
 /// Parameters of [`describe_with`].
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
 pub struct DescribeParams {
     /// Taubin λ|μ pairs applied to the surface before describing (see *Smoothing*). Default 30;
     /// 0 describes the surface as it is.
