@@ -16,8 +16,8 @@
 //! discarded), stage 2 repeats `detect`'s extraction steps on the kept embedding.
 
 use keycomp_components::{
-    ClusterParams, ComponentParams, ComponentsError, DetectError, DetectParams, RegionGrower,
-    SmacofParams, adaptive_clustering, detect, geodesic_center, min_enclosing_sphere,
+    ClusterParams, ComponentParams, ComponentsError, DetectError, DetectParams, GeodesicOptions,
+    RegionGrower, SmacofParams, adaptive_clustering, detect, geodesic_center, min_enclosing_sphere,
 };
 use keycomp_harris::HarrisParams;
 use keycomp_mesh::{Mesh, Point3, Topology, VertexId, geometry};
@@ -36,6 +36,7 @@ pub fn embed(
     mesh: &Mesh,
     harris: &HarrisParams,
     smacof: &SmacofParams,
+    geodesic: &GeodesicOptions,
 ) -> Result<Embedded, DetectError> {
     let params = DetectParams {
         harris: *harris,
@@ -43,6 +44,7 @@ pub fn embed(
             smacof: smacof.clone(),
             ..ComponentParams::default()
         },
+        geodesic: *geodesic,
     };
     let det = detect(mesh, &params)?;
     Ok(Embedded {
@@ -124,13 +126,15 @@ mod tests {
         let mesh = synth::textured_protrusion_sphere(5);
         let harris = HarrisParams::default();
         let smacof = SmacofParams::default();
-        let embedded = embed(&mesh, &harris, &smacof).unwrap();
+        let geodesic = GeodesicOptions::default();
+        let embedded = embed(&mesh, &harris, &smacof, &geodesic).unwrap();
         let extractor = Extractor::new(&mesh);
         let mut total = 0;
         for preset in Preset::ALL {
             let params = DetectParams {
                 harris,
                 components: preset.component_params(),
+                geodesic,
             };
             let det = detect(&mesh, &params).unwrap();
             assert_eq!(det.keypoints, embedded.keypoints);

@@ -27,6 +27,9 @@ pub use cluster::{Cluster, ClusterParams, Clustering, adaptive_clustering};
 pub use error::ComponentsError;
 pub use grow::{Component, RegionGrower, geodesic_center};
 pub use params::{ComponentParams, Preset};
-pub use pipeline::{DetectError, DetectParams, Detection, KeyComponent, Timings, detect};
+pub use pipeline::{
+    DetectError, DetectParams, Detection, GeodesicOptions, KeyComponent, Timings, detect,
+    keypoint_distances,
+};
 pub use smacof::{Embedding, SmacofParams, smacof};
 pub use sphere::{Sphere, min_enclosing_sphere};

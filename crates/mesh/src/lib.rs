@@ -1,6 +1,6 @@
 //! Triangle meshes for keycomp: reading and validating OFF, OBJ, PLY and STL files, writing OFF
 //! and coloured PLY, geometry (areas, bounding box, unit-area normalisation), adjacency and
-//! synthetic shapes generated in code.
+//! synthetic shapes generated in code, and simplification by half-edge collapse ([`simplify`]).
 //!
 //! Vertex ids are the file's own vertex order: readers never weld or reorder vertices (STL, which
 //! has no shared vertices, is the one exception: its corners are merged by exact position, in
@@ -12,6 +12,7 @@ pub mod cut;
 mod error;
 pub mod geometry;
 pub mod io;
+pub mod simplify;
 pub mod synth;
 mod topology;
 

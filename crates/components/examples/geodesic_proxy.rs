@@ -1,0 +1,197 @@
+//! Accuracy and speed of the keypoint distance matrix on a simplified proxy (pipeline step 3,
+//! `GeodesicOptions`) against the full mesh, and against great circles on an icosphere.
+//!
+//! For each mesh file: unit-area normalisation and Harris keypoints (KC-1 defaults, 1 % of the
+//! vertices) exactly as `detect` does, then the K×K matrix on the full mesh (every obtuse
+//! corner split) and under each setting given. Printed per setting: proxy vertices, mean and
+//! max relative difference over the pairs i < j, the largest absolute difference in units of
+//! R = 0.15 (the KC-1 clustering radius on the unit-area mesh), milliseconds to simplify and
+//! for the whole matrix (median of `--runs`, full mesh and settings alternated in each run).
+//! With `--sphere L`: `icosphere(L)` scaled to unit area, K = 1 % random vertices (seed 5),
+//! compared with great circles as well.
+//!
+//! ```text
+//! cargo run --release -p keycomp-components --example geodesic_proxy -- \
+//!     [--runs 3] [--settings 20000@90,0@110,...] [--sphere 6] MESH...
+//! ```
+//!
+//! A setting is `N@ANGLE`: proxy of at most N vertices (0 = full mesh), obtuse corners split
+//! from ANGLE degrees. Threads: the global rayon pool (`RAYON_NUM_THREADS=2` for the
+//! two-thread figures).
+
+use std::time::Instant;
+
+use keycomp_components::{GeodesicOptions, keypoint_distances};
+use keycomp_harris::HarrisParams;
+use keycomp_mesh::{Mesh, Topology, VertexId, geometry, read_mesh, synth};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+type Res<T> = Result<T, Box<dyn std::error::Error>>;
+
+/// (mean relative, max relative, max absolute) difference of `a` from `reference` over i < j.
+fn compare(a: &[f64], reference: &[f64], k: usize) -> (f64, f64, f64) {
+    let (mut sum, mut max, mut abs, mut n) = (0.0, 0.0f64, 0.0f64, 0usize);
+    for i in 0..k {
+        for j in i + 1..k {
+            let (x, r) = (a[i * k + j], reference[i * k + j]);
+            if r > 0.0 {
+                let d = (x - r).abs();
+                sum += d / r;
+                max = max.max(d / r);
+                abs = abs.max(d);
+                n += 1;
+            }
+        }
+    }
+    (sum / n.max(1) as f64, max, abs)
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn parse_setting(s: &str) -> Res<GeodesicOptions> {
+    let (n, a) = s.split_once('@').unwrap_or((s, "90"));
+    Ok(GeodesicOptions {
+        proxy_vertices: n.parse()?,
+        min_split_angle_degrees: a.parse()?,
+    })
+}
+
+fn run(
+    name: &str,
+    mesh: &Mesh,
+    keypoints: &[VertexId],
+    exact: Option<&[f64]>,
+    settings: &[GeodesicOptions],
+    runs: usize,
+) -> Res<()> {
+    let topo = Topology::new(mesh);
+    let k = keypoints.len();
+    let full = GeodesicOptions::full_mesh();
+    let all: Vec<GeodesicOptions> = std::iter::once(full)
+        .chain(settings.iter().copied())
+        .collect();
+    let mut times = vec![(Vec::new(), Vec::new()); all.len()];
+    let mut results = vec![(Vec::new(), 0usize); all.len()];
+    for _ in 0..runs {
+        for (i, o) in all.iter().enumerate() {
+            let t = Instant::now();
+            let (m, nv, simp) = keypoint_distances(mesh, &topo, keypoints, o)?;
+            times[i].0.push(t.elapsed().as_secs_f64() * 1e3);
+            times[i].1.push(simp);
+            results[i] = (m.into_vec(), nv);
+        }
+    }
+    println!(
+        "{name}: {} vertices, K = {k}{}",
+        mesh.num_vertices(),
+        if exact.is_some() {
+            ", vs great circles"
+        } else {
+            ""
+        }
+    );
+    println!(
+        "| setting | proxy vertices | mean rel. diff % | max rel. diff % | max abs. diff / R | \
+         simplify ms | matrix ms | matrix vs full |{}",
+        if exact.is_some() {
+            " mean rel. error vs great circles % | max % |"
+        } else {
+            ""
+        }
+    );
+    let full_ms = median(times[0].0.clone());
+    for (i, o) in all.iter().enumerate() {
+        let (mean, max, abs) = compare(&results[i].0, &results[0].0, k);
+        let ms = median(times[i].0.clone());
+        let mut line = format!(
+            "| {}@{} | {} | {:.3} | {:.2} | {:.3} | {:.0} | {:.0} | {:.2} |",
+            o.proxy_vertices,
+            o.min_split_angle_degrees,
+            results[i].1,
+            100.0 * mean,
+            100.0 * max,
+            abs / 0.15,
+            median(times[i].1.clone()),
+            ms,
+            ms / full_ms
+        );
+        if let Some(e) = exact {
+            let (m, mx, _) = compare(&results[i].0, e, k);
+            line.push_str(&format!(" {:.3} | {:.2} |", 100.0 * m, 100.0 * mx));
+        }
+        println!("{line}");
+    }
+    println!();
+    Ok(())
+}
+
+fn main() -> Res<()> {
+    let mut args = std::env::args().skip(1);
+    let mut runs = 3;
+    let mut settings = Vec::new();
+    let mut sphere = None;
+    let mut files = Vec::new();
+    while let Some(a) = args.next() {
+        match a.as_str() {
+            "--runs" => runs = args.next().ok_or("--runs N")?.parse()?,
+            "--settings" => {
+                for s in args.next().ok_or("--settings LIST")?.split(',') {
+                    settings.push(parse_setting(s)?);
+                }
+            }
+            "--sphere" => sphere = Some(args.next().ok_or("--sphere L")?.parse::<u32>()?),
+            _ => files.push(a),
+        }
+    }
+    if settings.is_empty() {
+        for n in [10_000, 15_000, 20_000, 25_000, 30_000] {
+            settings.push(GeodesicOptions {
+                proxy_vertices: n,
+                ..GeodesicOptions::full_mesh()
+            });
+        }
+    }
+    if let Some(level) = sphere {
+        let (mesh, _) = geometry::normalize_unit_area(&synth::icosphere(level, 1.0));
+        let n = mesh.num_vertices();
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let mut kp: Vec<VertexId> = (0..n / 100)
+            .map(|_| rng.random_range(0..n as VertexId))
+            .collect();
+        kp.sort_unstable();
+        kp.dedup();
+        // radius of the unit-area sphere: 4πr² = 1
+        let r = (0.25 / std::f64::consts::PI).sqrt();
+        let k = kp.len();
+        let mut exact = vec![0.0; k * k];
+        for i in 0..k {
+            for j in 0..k {
+                let (p, q) = (
+                    mesh.positions[kp[i] as usize].coords.normalize(),
+                    mesh.positions[kp[j] as usize].coords.normalize(),
+                );
+                exact[i * k + j] = r * p.dot(&q).clamp(-1.0, 1.0).acos();
+            }
+        }
+        run(
+            &format!("icosphere({level})"),
+            &mesh,
+            &kp,
+            Some(&exact),
+            &settings,
+            runs,
+        )?;
+    }
+    for f in &files {
+        let mesh = read_mesh(std::path::Path::new(f))?.mesh;
+        let (norm, _) = geometry::normalize_unit_area(&mesh);
+        let topo = Topology::new(&norm);
+        let harris = keycomp_harris::detect(&norm, &topo, &HarrisParams::default())?;
+        run(f, &norm, &harris.keypoints, None, &settings, runs)?;
+    }
+    Ok(())
+}
