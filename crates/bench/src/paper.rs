@@ -1,7 +1,8 @@
 //! The paper's published results, to print beside ours: average overlap per transformation
 //! and cumulative strength for KC-1, KC-2 and KC-3 — Tables 1, 2 and 3 of I. Sipiran and
 //! B. Bustos, "Key-components: detection of salient regions on 3D meshes", The Visual Computer
-//! 29(12), 2013, Section 4.3 (SHREC'10 feature detection benchmark: three null shapes, nine
+//! 29(12), 2013, Section 4.3 — and for the comparison method of Section 4.4, MSER and MSER
+//! key-components (Tables 5 and 6) (SHREC'10 feature detection benchmark: three null shapes, nine
 //! transformations × five strengths). Copied by hand from the paper's text; rows in the paper's
 //! order, columns strength 1, ≤ 2, ≤ 3, ≤ 4, ≤ 5.
 
@@ -41,7 +42,8 @@ pub fn row_order(kind: &str) -> usize {
 /// One of the paper's average-overlap tables.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct PaperTable {
-    /// Preset name as printed by [`keycomp_components::Preset`]'s `Display` (`KC-1`, …).
+    /// Preset name as printed by [`keycomp_components::Preset`]'s `Display` (`KC-1`, …), or
+    /// `MSER` / `MSER-KC`.
     pub preset: &'static str,
     /// Where the numbers are printed in the paper.
     pub source: &'static str,
@@ -58,8 +60,9 @@ impl PaperTable {
     }
 }
 
-/// Tables 1–3 of the paper.
-pub const PAPER_TABLES: [PaperTable; 3] = [
+/// Tables 1–3 of the paper (key-components KC-1..3) and Tables 5–6 (the comparison method of
+/// Section 4.4: Litman et al.'s MSER components and the MSER key-components).
+pub const PAPER_TABLES: [PaperTable; 5] = [
     PaperTable {
         preset: "KC-1",
         source: "Sipiran & Bustos 2013, Table 1",
@@ -108,9 +111,41 @@ pub const PAPER_TABLES: [PaperTable; 3] = [
         ],
         average: [0.84, 0.80, 0.79, 0.79, 0.78],
     },
+    PaperTable {
+        preset: "MSER",
+        source: "Sipiran & Bustos 2013, Table 5",
+        rows: [
+            ("isometry", [0.79, 0.87, 0.87, 0.88, 0.87]),
+            ("topology", [0.75, 0.74, 0.65, 0.54, 0.57]),
+            ("microholes", [0.79, 0.80, 0.79, 0.79, 0.77]),
+            ("scale", [0.81, 0.87, 0.75, 0.63, 0.52]),
+            ("localscale", [0.75, 0.72, 0.74, 0.65, 0.56]),
+            ("sampling", [0.80, 0.80, 0.80, 0.62, 0.14]),
+            ("noise", [0.79, 0.75, 0.76, 0.77, 0.76]),
+            ("shotnoise", [0.81, 0.81, 0.80, 0.81, 0.82]),
+            ("holes", [0.79, 0.79, 0.75, 0.75, 0.73]),
+        ],
+        average: [0.79, 0.79, 0.77, 0.71, 0.64],
+    },
+    PaperTable {
+        preset: "MSER-KC",
+        source: "Sipiran & Bustos 2013, Table 6",
+        rows: [
+            ("isometry", [0.83, 0.88, 0.90, 0.87, 0.86]),
+            ("topology", [0.77, 0.72, 0.67, 0.52, 0.55]),
+            ("microholes", [0.82, 0.81, 0.80, 0.79, 0.78]),
+            ("scale", [0.76, 0.84, 0.80, 0.67, 0.58]),
+            ("localscale", [0.77, 0.72, 0.71, 0.64, 0.58]),
+            ("sampling", [0.83, 0.83, 0.80, 0.62, 0.12]),
+            ("noise", [0.79, 0.79, 0.83, 0.83, 0.79]),
+            ("shotnoise", [0.83, 0.83, 0.80, 0.80, 0.80]),
+            ("holes", [0.79, 0.77, 0.66, 0.63, 0.62]),
+        ],
+        average: [0.80, 0.80, 0.78, 0.71, 0.63],
+    },
 ];
 
-/// The paper's table for a preset name (`KC-1`, `KC-2`, `KC-3`).
+/// The paper's table for a preset name (`KC-1`, `KC-2`, `KC-3`, `MSER`, `MSER-KC`).
 pub fn paper_table(preset: &str) -> Option<&'static PaperTable> {
     PAPER_TABLES.iter().find(|t| t.preset == preset)
 }
@@ -141,6 +176,11 @@ mod tests {
             paper_table("KC-2").unwrap().row("sampling").unwrap()[1],
             0.41
         );
+        assert_eq!(
+            paper_table("MSER-KC").unwrap().row("holes").unwrap()[4],
+            0.62
+        );
+        assert_eq!(paper_table("MSER").unwrap().average[4], 0.64);
         assert_eq!(row_label("microholes"), "Micro holes");
         assert_eq!(row_label("other"), "other");
         assert!(row_order("isometry") < row_order("holes"));
