@@ -1,0 +1,502 @@
+//! HTML reports of queries (`keycomp query --report DIR`, `keycomp demo`): each query rendered
+//! with its key-components coloured, and each result rendered with its matched components in
+//! the colours of the query components they match, scores and descriptor distances beside.
+//!
+//! Result meshes are read from the indexed paths. The index keeps each component's centre
+//! vertex and area fraction but not its vertex set, so a result's component is drawn as the
+//! region of that area around its centre (vertices taken in order of edge-path distance from
+//! the centre until their area reaches the stored fraction). A result whose file is missing or
+//! whose content hash differs from the indexed one is listed without a picture, saying why.
+//!
+//! The report is built in a temporary sibling directory and moved into place with renames, so
+//! `DIR` holds either the previous report or the new one, never a mixture.
+
+use std::cmp::Reverse;
+use std::collections::{BinaryHeap, HashMap};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use keycomp_index::ContentHash;
+use keycomp_mesh::{Mesh, Point3, Topology, Vector3, VertexId, read_mesh};
+use keycomp_render::{RenderParams, render};
+use keycomp_retrieval::Ranked;
+
+use crate::colors;
+use crate::index_cmd::Reader;
+use crate::match_cmd::Analysed;
+
+/// Colour of a result's components that match nothing.
+const UNMATCHED: [u8; 3] = [110, 110, 110];
+
+/// One query of a report.
+pub struct QueryEntry<'a> {
+    /// Heading (e.g. the query file name).
+    pub title: String,
+    /// Extra line under the heading (e.g. the true class), plain text.
+    pub note: Option<String>,
+    /// The query, read, detected and described.
+    pub query: &'a Analysed,
+    /// Its ranked results.
+    pub results: &'a [Ranked],
+}
+
+/// Image sizes of a report.
+#[derive(Debug, Clone, Copy)]
+pub struct ReportParams {
+    /// Side of the query pictures, pixels.
+    pub query_size: u32,
+    /// Side of the result pictures, pixels.
+    pub result_size: u32,
+}
+
+impl Default for ReportParams {
+    fn default() -> Self {
+        ReportParams {
+            query_size: 320,
+            result_size: 220,
+        }
+    }
+}
+
+/// Escapes text for HTML element content and double-quoted attribute values.
+pub fn escape(s: &str) -> String {
+    let mut out = String::with_capacity(s.len());
+    for c in s.chars() {
+        match c {
+            '&' => out.push_str("&amp;"),
+            '<' => out.push_str("&lt;"),
+            '>' => out.push_str("&gt;"),
+            '"' => out.push_str("&quot;"),
+            '\'' => out.push_str("&#39;"),
+            _ => out.push(c),
+        }
+    }
+    out
+}
+
+fn hex(c: [u8; 3]) -> String {
+    format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2])
+}
+
+/// Shortest edge-path lengths from `source` to every vertex (Dijkstra on the mesh's edges;
+/// `f64::INFINITY` where unreachable).
+pub fn edge_distances(mesh: &Mesh, topo: &Topology, source: VertexId) -> Vec<f64> {
+    let mut dist = vec![f64::INFINITY; mesh.num_vertices()];
+    let Some(d0) = dist.get_mut(source as usize) else {
+        return dist;
+    };
+    *d0 = 0.0;
+    // Non-negative f64 bit patterns order like the numbers.
+    let mut heap = BinaryHeap::new();
+    heap.push(Reverse((0u64, source)));
+    while let Some(Reverse((bits, v))) = heap.pop() {
+        let d = f64::from_bits(bits);
+        if d > dist[v as usize] {
+            continue;
+        }
+        for &w in topo.neighbors(v) {
+            let nd = d + (mesh.positions[w as usize] - mesh.positions[v as usize]).norm();
+            if nd < dist[w as usize] {
+                dist[w as usize] = nd;
+                heap.push(Reverse((nd.to_bits(), w)));
+            }
+        }
+    }
+    dist
+}
+
+/// The vertices nearest `centre` along edges whose (barycentric) area adds up to
+/// `area_fraction` of the mesh's area: the picture of an indexed component.
+pub fn region_of_area(
+    mesh: &Mesh,
+    topo: &Topology,
+    centre: VertexId,
+    area_fraction: f64,
+) -> Vec<VertexId> {
+    let dist = edge_distances(mesh, topo, centre);
+    let areas = keycomp_mesh::geometry::vertex_areas(mesh);
+    let total: f64 = areas.iter().sum();
+    let mut order: Vec<VertexId> = (0..mesh.num_vertices() as VertexId)
+        .filter(|&v| dist[v as usize].is_finite())
+        .collect();
+    order.sort_by(|&a, &b| {
+        dist[a as usize]
+            .total_cmp(&dist[b as usize])
+            .then(a.cmp(&b))
+    });
+    let mut acc = 0.0;
+    let mut out = Vec::new();
+    for v in order {
+        if acc >= area_fraction * total {
+            break;
+        }
+        acc += areas[v as usize];
+        out.push(v);
+    }
+    out
+}
+
+/// A copy of `mesh` turned so its principal axes (of the area-weighted vertex covariance) lie
+/// along x (largest spread), y and z (smallest), signed so the third moment is non-negative
+/// along x and non-positive along y (long limbs hang down): the renderer's front view (from
+/// +z) then shows the shape's broadest outline,
+/// whatever rigid motion it came with. Vertex ids are unchanged.
+pub fn principal_pose(mesh: &Mesh) -> Mesh {
+    let w = keycomp_mesh::geometry::vertex_areas(mesh);
+    let total: f64 = w.iter().sum();
+    if total.is_nan() || total <= 0.0 {
+        return mesh.clone();
+    }
+    let c = mesh
+        .positions
+        .iter()
+        .zip(&w)
+        .map(|(p, &a)| p.coords * a)
+        .sum::<Vector3<f64>>()
+        / total;
+    let mut cov = Vector3::zeros() * Vector3::zeros().transpose();
+    for (p, &a) in mesh.positions.iter().zip(&w) {
+        let d = p.coords - c;
+        cov += d * d.transpose() * a;
+    }
+    let eig = cov.symmetric_eigen();
+    let mut order = [0usize, 1, 2];
+    order.sort_by(|&i, &j| eig.eigenvalues[j].total_cmp(&eig.eigenvalues[i]));
+    let mut axes: Vec<Vector3<f64>> = order
+        .iter()
+        .map(|&i| eig.eigenvectors.column(i).into_owned())
+        .collect();
+    // x: the longer tail towards +x; y: the longer tail (legs, tentacles) downwards.
+    for (k, axis) in axes.iter_mut().take(2).enumerate() {
+        let skew: f64 = mesh
+            .positions
+            .iter()
+            .zip(&w)
+            .map(|(p, &a)| a * (p.coords - c).dot(axis).powi(3))
+            .sum();
+        if (k == 0 && skew < 0.0) || (k == 1 && skew > 0.0) {
+            *axis = -*axis;
+        }
+    }
+    axes[2] = axes[0].cross(&axes[1]);
+    if !axes.iter().all(|a| a.iter().all(|x| x.is_finite())) {
+        return mesh.clone();
+    }
+    Mesh {
+        positions: mesh
+            .positions
+            .iter()
+            .map(|p| {
+                let d = p.coords - c;
+                Point3::new(d.dot(&axes[0]), d.dot(&axes[1]), d.dot(&axes[2]))
+            })
+            .collect(),
+        faces: mesh.faces.clone(),
+    }
+}
+
+/// Why a result has no picture, or its mesh.
+enum ResultMesh {
+    Ok(Mesh, Topology),
+    Unavailable(String),
+}
+
+fn load_result(path: &Path, expected: ContentHash) -> ResultMesh {
+    match ContentHash::of_file(path) {
+        Err(_) if !path.exists() => ResultMesh::Unavailable("the file is gone".into()),
+        Err(e) => ResultMesh::Unavailable(format!("the file cannot be read: {e}")),
+        Ok(h) if h != expected => {
+            ResultMesh::Unavailable("the file has changed since it was indexed".into())
+        }
+        Ok(_) => match read_mesh(path) {
+            Ok(l) => {
+                let topo = Topology::new(&l.mesh);
+                ResultMesh::Ok(l.mesh, topo)
+            }
+            Err(e) => ResultMesh::Unavailable(format!("the file cannot be read: {e}")),
+        },
+    }
+}
+
+/// Renders `mesh` in its [`principal_pose`], seen from the front, a little from the right and
+/// above.
+fn png(mesh: &Mesh, cols: &[[u8; 3]], size: u32, path: &Path) -> Result<()> {
+    let rp = RenderParams {
+        size,
+        azimuth_deg: 20.0,
+        elevation_deg: 15.0,
+        ..RenderParams::default()
+    };
+    let image = render(&principal_pose(mesh), cols, &rp).context("rendering failed")?;
+    let bytes = image.to_png_bytes().context("PNG encoding failed")?;
+    std::fs::write(path, bytes).with_context(|| format!("{}: cannot write", path.display()))?;
+    Ok(())
+}
+
+const STYLE: &str = "body{font-family:system-ui,sans-serif;margin:1.5em;color:#222}
+h1{font-size:1.4em}h2{font-size:1.15em;margin-top:2em;border-top:1px solid #ccc;padding-top:1em}
+.query{display:flex;gap:1.5em;align-items:flex-start}
+table{border-collapse:collapse}td,th{padding:4px 8px;vertical-align:top;text-align:left}
+tr.result{border-top:1px solid #eee}
+.sw{display:inline-block;width:0.9em;height:0.9em;border:1px solid #555;vertical-align:middle;margin-right:4px}
+.missing{width:220px;height:60px;display:flex;align-items:center;color:#a33;font-size:0.9em}
+.note{color:#555}code{font-size:0.9em}";
+
+/// Writes `DIR/index.html` and its PNG pictures for `entries`, replacing a previous report in
+/// `DIR`. Refuses to replace a directory that is not empty and has no `index.html` (so it never
+/// deletes something that is not a report). Returns the path of `index.html`.
+pub fn write_report(
+    dir: &Path,
+    reader: &Reader,
+    entries: &[QueryEntry],
+    params: &ReportParams,
+) -> Result<PathBuf> {
+    if dir.exists() {
+        let is_empty = std::fs::read_dir(dir)
+            .with_context(|| format!("{}: cannot read the report directory", dir.display()))?
+            .next()
+            .is_none();
+        if !is_empty && !dir.join("index.html").is_file() {
+            bail!(
+                "{}: exists and is not a keycomp report (no index.html); choose another --report directory",
+                dir.display()
+            );
+        }
+    }
+    let name = dir
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "report".into());
+    let parent = match dir.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    std::fs::create_dir_all(&parent)
+        .with_context(|| format!("{}: cannot create the directory", parent.display()))?;
+    let tmp = parent.join(format!(".{name}.tmp-{}", std::process::id()));
+    if tmp.exists() {
+        std::fs::remove_dir_all(&tmp)
+            .with_context(|| format!("{}: cannot remove a stale temporary", tmp.display()))?;
+    }
+    std::fs::create_dir(&tmp)
+        .with_context(|| format!("{}: cannot create the directory", tmp.display()))?;
+    let built = build(&tmp, reader, entries, params);
+    if let Err(e) = built {
+        let _ = std::fs::remove_dir_all(&tmp);
+        return Err(e);
+    }
+    let old = parent.join(format!(".{name}.old-{}", std::process::id()));
+    if dir.exists() {
+        std::fs::rename(dir, &old)
+            .with_context(|| format!("{}: cannot move the old report aside", dir.display()))?;
+    }
+    std::fs::rename(&tmp, dir)
+        .with_context(|| format!("{}: cannot move the new report into place", dir.display()))?;
+    if old.exists() {
+        let _ = std::fs::remove_dir_all(&old);
+    }
+    Ok(dir.join("index.html"))
+}
+
+fn build(out: &Path, reader: &Reader, entries: &[QueryEntry], params: &ReportParams) -> Result<()> {
+    let mut cache: HashMap<PathBuf, ResultMesh> = HashMap::new();
+    let mut h = String::new();
+    writeln!(
+        h,
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>keycomp query report</title>\n<style>{STYLE}</style></head><body>"
+    )?;
+    writeln!(
+        h,
+        "<h1>keycomp query report</h1>\n<p class=\"note\">Index <code>{}</code>, {} shapes. \
+         Each query's key-components have their own colour; in each result, the component \
+         matched to a query component has that component's colour, unmatched components are \
+         dark grey. Result components are drawn as the region of their indexed area around \
+         their indexed centre (the index keeps centres and areas, not vertex sets).</p>",
+        escape(&reader.dir().display().to_string()),
+        reader.shapes().len()
+    )?;
+    for (qi, e) in entries.iter().enumerate() {
+        let q = e.query;
+        let qimg = format!("q{:02}.png", qi + 1);
+        let mut cols = vec![colors::GREY; q.mesh.num_vertices()];
+        for (i, c) in q.detection.components.iter().enumerate() {
+            for &v in &c.vertices {
+                cols[v as usize] = colors::distinct(i);
+            }
+        }
+        png(&q.mesh, &cols, params.query_size, &out.join(&qimg))?;
+        writeln!(h, "<h2>{}</h2>", escape(&e.title))?;
+        if let Some(n) = &e.note {
+            writeln!(h, "<p class=\"note\">{}</p>", escape(n))?;
+        }
+        writeln!(
+            h,
+            "<div class=\"query\"><img src=\"{qimg}\" width=\"{s}\" height=\"{s}\" alt=\"query {}\"><div><p>{} vertices, {} key-components:</p><ul>",
+            escape(&e.title),
+            q.mesh.num_vertices(),
+            q.description.components.len(),
+            s = params.query_size
+        )?;
+        for (i, c) in q.description.components.iter().enumerate() {
+            writeln!(
+                h,
+                "<li><span class=\"sw\" style=\"background:{}\"></span>component {i}: {:.1} % of the area, {} keypoints</li>",
+                hex(colors::distinct(i)),
+                c.area * 100.0,
+                c.keypoints
+            )?;
+        }
+        writeln!(h, "</ul></div></div>")?;
+        if e.results.is_empty() {
+            writeln!(h, "<p>No indexed shape matches this query.</p>")?;
+            continue;
+        }
+        writeln!(
+            h,
+            "<table><tr><th>rank</th><th>picture</th><th>shape, score and matched components</th></tr>"
+        )?;
+        for (ri, r) in e.results.iter().enumerate() {
+            let Some(rec) = reader.get(r.id) else {
+                continue;
+            };
+            let src = rec.canonical_path.clone();
+            let loaded = cache
+                .entry(src.clone())
+                .or_insert_with(|| load_result(&src, rec.content_hash));
+            let picture = match loaded {
+                ResultMesh::Ok(mesh, topo) => {
+                    let mut cols = vec![colors::GREY; mesh.num_vertices()];
+                    let mut paint = |comp: usize, col: [u8; 3]| {
+                        if let Some(c) = rec.components.get(comp)
+                            && (c.centre_vertex as usize) < mesh.num_vertices()
+                        {
+                            let area = c.area_fraction as f64;
+                            for v in region_of_area(mesh, topo, c.centre_vertex, area) {
+                                cols[v as usize] = col;
+                            }
+                        }
+                    };
+                    let matched: Vec<usize> = r.result.matches.iter().map(|m| m.target).collect();
+                    for comp in 0..rec.components.len() {
+                        if !matched.contains(&comp) {
+                            paint(comp, UNMATCHED);
+                        }
+                    }
+                    for m in &r.result.matches {
+                        paint(m.target, colors::distinct(m.query));
+                    }
+                    let img = format!("q{:02}-r{:02}.png", qi + 1, ri + 1);
+                    png(mesh, &cols, params.result_size, &out.join(&img))?;
+                    format!(
+                        "<img src=\"{img}\" width=\"{s}\" height=\"{s}\" alt=\"result {}\">",
+                        ri + 1,
+                        s = params.result_size
+                    )
+                }
+                ResultMesh::Unavailable(why) => {
+                    format!("<div class=\"missing\">no picture: {}</div>", escape(why))
+                }
+            };
+            let mut matches = String::new();
+            for m in &r.result.matches {
+                write!(
+                    matches,
+                    "<li><span class=\"sw\" style=\"background:{}\"></span>query {} ↔ component {} (distance {:.3})</li>",
+                    hex(colors::distinct(m.query)),
+                    m.query,
+                    m.target,
+                    m.distance
+                )?;
+            }
+            writeln!(
+                h,
+                "<tr class=\"result\"><td>{}</td><td>{picture}</td><td><code>{}</code><br>score <b>{:.3}</b>, {} of {} query components matched{}<ul>{matches}</ul></td></tr>",
+                ri + 1,
+                escape(&rec.path.display().to_string()),
+                r.result.score,
+                r.result.matches.len(),
+                q.description.components.len(),
+                if r.result.rejected > 0 {
+                    format!(", {} dropped by the layout check", r.result.rejected)
+                } else {
+                    String::new()
+                }
+            )?;
+        }
+        writeln!(h, "</table>")?;
+    }
+    writeln!(h, "</body></html>")?;
+    std::fs::write(out.join("index.html"), h)
+        .with_context(|| format!("{}: cannot write index.html", out.display()))?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use keycomp_mesh::synth;
+
+    #[test]
+    fn escape_covers_markup_and_quotes() {
+        assert_eq!(escape("a<b>&\"c'"), "a&lt;b&gt;&amp;&quot;c&#39;");
+        assert_eq!(escape("plain/path.off"), "plain/path.off");
+    }
+
+    #[test]
+    fn edge_distances_on_a_grid_are_manhattan_lengths() {
+        // unit grid: the shortest edge path follows axis edges and diagonals; along a row it is
+        // exactly the column difference
+        let m = synth::grid(5, 5, 1.0);
+        let topo = Topology::new(&m);
+        let d = edge_distances(&m, &topo, 0);
+        assert_eq!(d[0], 0.0);
+        for (i, &x) in d.iter().enumerate().take(5) {
+            assert!((x - i as f64).abs() < 1e-12, "{i}: {x}");
+        }
+    }
+
+    #[test]
+    fn principal_pose_puts_the_longest_axis_on_x_and_keeps_shape() {
+        // an ellipsoid-like sphere stretched along a tilted direction
+        let mut m = synth::icosphere(3, 1.0);
+        let r = keycomp_mesh::Vector3::new(1.0, 2.0, 0.5).normalize();
+        for p in &mut m.positions {
+            let along = p.coords.dot(&r);
+            *p = Point3::from(p.coords + r * (2.0 * along) + Vector3::new(5.0, -3.0, 1.0));
+        }
+        let q = principal_pose(&m);
+        let spread = |k: usize| q.positions.iter().map(|p| p[k].abs()).fold(0.0, f64::max);
+        assert!((spread(0) - 3.0).abs() < 0.05, "{}", spread(0));
+        assert!(spread(1) < 1.05 && spread(2) < 1.05);
+        // a rotation: distances between vertices are kept, orientation too
+        for (a, b) in [(0usize, 5usize), (3, 40), (17, 99)] {
+            let d0 = (m.positions[a] - m.positions[b]).norm();
+            let d1 = (q.positions[a] - q.positions[b]).norm();
+            assert!((d0 - d1).abs() < 1e-9);
+        }
+        let vol = |m: &Mesh| {
+            (0..m.num_faces())
+                .map(|f| {
+                    let [a, b, c] = m.triangle(f);
+                    a.coords.dot(&b.coords.cross(&c.coords))
+                })
+                .sum::<f64>()
+        };
+        assert!((vol(&m) - vol(&q)).abs() < 1e-6 * vol(&m).abs());
+    }
+
+    #[test]
+    fn region_of_area_grows_with_the_fraction_and_contains_the_centre() {
+        let m = synth::icosphere(3, 1.0);
+        let topo = Topology::new(&m);
+        let small = region_of_area(&m, &topo, 7, 0.1);
+        let big = region_of_area(&m, &topo, 7, 0.4);
+        assert_eq!(small[0], 7);
+        assert!(small.len() < big.len());
+        let n = m.num_vertices() as f64;
+        assert!((small.len() as f64 / n - 0.1).abs() < 0.03);
+        assert!((big.len() as f64 / n - 0.4).abs() < 0.03);
+        assert!(region_of_area(&m, &topo, 7, 1.0).len() == m.num_vertices());
+    }
+}
