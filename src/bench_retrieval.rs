@@ -1,0 +1,950 @@
+//! `keycomp bench retrieval`: retrieval quality of a labelled collection, key-components against
+//! the D2 shape distribution, on whole-shape and partial queries (issue 6).
+//!
+//! **Key-components** go through the product path: every collection file is analysed by
+//! [`crate::index_cmd::record_of`], the function `keycomp index add` uses, with the same
+//! detection options ([`DetectArgs::retrieval_params`], the same defaults, including the
+//! scaling of N for small meshes), the records are written to a fresh on-disk index in
+//! `OUT/index` (opened by [`crate::index_cmd::open_writer`], as `index add` does), and each query is ranked by `keycomp_retrieval::rank` over that
+//! index, as `keycomp query` does. A partial query is written to `OUT/fragments` as an OFF file
+//! and analysed by the same function, so it is detected and described exactly as a file given
+//! to `keycomp query` would be. Shapes `rank` does not return (no shared candidate component,
+//! or a score of 0) follow in a seeded random order ([`complete_ranking`]).
+//!
+//! **D2** (Osada et al. 2002, [`keycomp_bench::retrieval::d2`]) ranks by L1 distance between
+//! histograms, on the same queries.
+//!
+//! **Cache.** Records are cached in `OUT/cache` (or `--cache`) as JSON, keyed by a hash of the
+//! file's content, the detection parameters and the running executable's bytes: a rebuilt
+//! binary (whose detection may have changed) never reuses an old entry, and a re-run of the
+//! same binary skips detection. Entries are written atomically (temporary file + rename); an
+//! unreadable entry is recomputed.
+//!
+//! The measures are documented in [`keycomp_bench::retrieval::metrics`].
+
+use std::collections::{BTreeMap, HashMap};
+use std::fmt::Write as _;
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use keycomp_bench::retrieval::d2::{D2Params, d2, l1};
+use keycomp_bench::retrieval::labels::{DEFAULT_CLASS_REGEX, classes_from_csv, classes_from_names};
+use keycomp_bench::retrieval::metrics::{QueryScores, Summary, score, summarize};
+use keycomp_bench::retrieval::partial::{PartialKind, cut_fragment};
+use keycomp_bench::retrieval::{complete_ranking, pr_svg, rank_by_distance};
+use keycomp_bench::svg::Curve;
+use keycomp_components::DetectParams;
+use keycomp_describe::DIM;
+use keycomp_index::{ContentHash, ShapeRecord};
+use keycomp_mesh::read_mesh;
+use keycomp_retrieval::{MatchParams, rank};
+use rand::seq::SliceRandom;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::detect::DetectArgs;
+use crate::index_cmd::{Reader, open_writer, progress, record_of};
+use crate::output;
+
+pub const EXAMPLES: &str = "Examples:
+  keycomp bench retrieval --collection ../shared/data/tosca
+  keycomp bench retrieval --collection ../shared/data/faust --class-from-name 'tr_reg_\\d(\\d)\\d' --out bench-out/retrieval-faust-subject
+  keycomp bench retrieval --collection my-shapes --labels classes.csv --partial ball,scan --queries 50 --seed 3
+  keycomp bench retrieval --collection ../shared/data/tosca --detect \"--preset kc2\" --partial none
+
+Ranks the collection for every whole shape (left out of its own ranking) and for partial
+queries cut from it (ball: geodesic ball, plane: plane cut, scan: one simulated range-scan
+view; each keeps 20-60 % of the area, drawn per query), once by key-components (detection and
+description as `keycomp index add` does, an on-disk index, `keycomp query`'s ranking) and once
+by the D2 shape distribution. Prints NN, FT, ST, E, DCG and mAP (Princeton Shape Benchmark
+definitions) and, for partial queries, the mean rank of the source shape. Writes
+OUT/results.json, OUT/pr-<queries>.svg (precision-recall), OUT/fragments/*.off and OUT/index;
+detections are cached in OUT/cache.";
+
+/// Arguments of `keycomp bench retrieval`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Folder of mesh files (.off, .obj, .ply, .stl, searched recursively).
+    #[arg(long, value_name = "DIR")]
+    pub collection: PathBuf,
+    /// Classes from a CSV file of `file,class` lines (file name, stem or path relative to the
+    /// collection).
+    #[arg(long, value_name = "CSV", conflicts_with = "class_from_name")]
+    pub labels: Option<PathBuf>,
+    /// Classes from the file stems: the first capture group of this regular expression (or its
+    /// whole match) [default: ^(\D+), the name before the first digit].
+    #[arg(long, value_name = "REGEX")]
+    pub class_from_name: Option<String>,
+    /// Partial query kinds: ball, plane, scan, or none (whole-shape queries only); repeat or
+    /// separate with commas [default: ball,plane,scan].
+    #[arg(long, value_name = "KIND", num_args = 1.., value_delimiter = ',')]
+    pub partial: Vec<String>,
+    /// Partial queries per kind [default: one per collection shape]. Sources are drawn without
+    /// repetition until every shape has been used once.
+    #[arg(long, value_name = "N")]
+    pub queries: Option<usize>,
+    /// Seed of everything random (fragment sources, centres, directions and fractions; the
+    /// order of unranked shapes; D2 sampling).
+    #[arg(long, default_value_t = 0, value_name = "S")]
+    pub seed: u64,
+    /// Range of the area fraction a fragment keeps, drawn uniformly per query.
+    #[arg(long, default_value = "0.2,0.6", value_name = "MIN,MAX", value_parser = parse_range)]
+    pub area: (f64, f64),
+    /// Point pairs sampled per D2 histogram.
+    #[arg(long, default_value_t = 1 << 18, value_name = "N")]
+    pub d2_pairs: usize,
+    /// Output folder.
+    #[arg(long, default_value = "bench-out/retrieval", value_name = "DIR")]
+    pub out: PathBuf,
+    /// Cache of detections [default: OUT/cache].
+    #[arg(long, value_name = "DIR")]
+    pub cache: Option<PathBuf>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Detection options, as `keycomp index add` takes them (e.g. "--preset kc2 --n 20");
+    /// without it, `index add`'s defaults.
+    #[arg(long, value_name = "OPTIONS", allow_hyphen_values = true)]
+    pub detect: Option<String>,
+}
+
+/// Parses detection options with the same definitions (and defaults) as `keycomp index add`.
+#[derive(Debug, clap::Parser)]
+#[command(name = "--detect", no_binary_name = true, disable_help_flag = true)]
+struct DetectOptions {
+    #[command(flatten)]
+    detect: DetectArgs,
+}
+
+fn detect_args(options: Option<&str>) -> Result<DetectArgs> {
+    use clap::Parser as _;
+    let words = options.unwrap_or("").split_whitespace();
+    DetectOptions::try_parse_from(words)
+        .map(|o| o.detect)
+        .map_err(|e| anyhow::anyhow!("--detect: {}", e.render().to_string().trim()))
+}
+
+fn parse_range(s: &str) -> Result<(f64, f64), String> {
+    let bad = || format!("'{s}': expected MIN,MAX with 0 < MIN <= MAX <= 1, e.g. 0.2,0.6");
+    let (a, b) = s.split_once(',').ok_or_else(bad)?;
+    let a: f64 = a.trim().parse().map_err(|_| bad())?;
+    let b: f64 = b.trim().parse().map_err(|_| bad())?;
+    if a > 0.0 && a <= b && b <= 1.0 {
+        Ok((a, b))
+    } else {
+        Err(bad())
+    }
+}
+
+const EXTENSIONS: [&str; 4] = ["off", "obj", "ply", "stl"];
+
+/// Supported mesh files below `dir`, sorted by path.
+fn list_meshes(dir: &Path) -> Result<Vec<PathBuf>> {
+    if !dir.is_dir() {
+        bail!("{}: not a folder (--collection)", dir.display());
+    }
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in fs::read_dir(&d).with_context(|| format!("{}: cannot read folder", d.display()))? {
+            let p = e
+                .with_context(|| format!("{}: cannot read folder", d.display()))?
+                .path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p
+                .extension()
+                .and_then(|e| e.to_str())
+                .is_some_and(|e| EXTENSIONS.contains(&e.to_ascii_lowercase().as_str()))
+            {
+                out.push(p);
+            }
+        }
+    }
+    out.sort();
+    Ok(out)
+}
+
+/// A seed for one random decision, from the run's seed, a tag and an index.
+fn sub_seed(seed: u64, tag: &str, i: u64) -> u64 {
+    let mut b = Vec::with_capacity(tag.len() + 16);
+    b.extend_from_slice(&seed.to_le_bytes());
+    b.extend_from_slice(tag.as_bytes());
+    b.extend_from_slice(&i.to_le_bytes());
+    xxhash_rust::xxh3::xxh3_64(&b)
+}
+
+/// Records cached by content, detection parameters and executable (see the module docs).
+struct RecordCache {
+    dir: Option<PathBuf>,
+    salt: String,
+}
+
+impl RecordCache {
+    fn new(dir: PathBuf, params: &DetectParams) -> RecordCache {
+        let exe = std::env::current_exe()
+            .ok()
+            .and_then(|p| fs::read(p).ok())
+            .map(|b| xxhash_rust::xxh3::xxh3_128(&b));
+        match exe {
+            Some(h) => RecordCache {
+                dir: Some(dir),
+                salt: format!(
+                    "{h:032x}|{}",
+                    serde_json::to_string(params).unwrap_or_default()
+                ),
+            },
+            None => {
+                eprintln!("warning: cannot read the running executable; detections are not cached");
+                RecordCache {
+                    dir: None,
+                    salt: String::new(),
+                }
+            }
+        }
+    }
+
+    fn path(&self, hash: &ContentHash) -> Option<PathBuf> {
+        let dir = self.dir.as_ref()?;
+        let key = xxhash_rust::xxh3::xxh3_128(format!("{hash}|{}", self.salt).as_bytes());
+        Some(dir.join(format!("{key:032x}.json")))
+    }
+
+    /// The record of `path` (content `hash`), from the cache or computed (and stored).
+    fn record(
+        &self,
+        path: &Path,
+        hash: ContentHash,
+        params: &DetectParams,
+    ) -> Result<(ShapeRecord<DIM>, bool)> {
+        let entry = self.path(&hash);
+        let cached = entry
+            .as_ref()
+            .and_then(|e| fs::read(e).ok())
+            .and_then(|b| serde_json::from_slice::<ShapeRecord<DIM>>(&b).ok())
+            .filter(|r| r.content_hash == hash);
+        if let Some(mut r) = cached {
+            r.path = path.to_path_buf();
+            r.canonical_path = keycomp_index::canonical_path(path);
+            return Ok((r, true));
+        }
+        let r = record_of(path, hash, params)?;
+        if let (Some(e), Ok(bytes)) = (entry, serde_json::to_vec(&r)) {
+            // a cache that cannot be written only costs time
+            let _ = write_atomic(&e, &bytes);
+        }
+        Ok((r, false))
+    }
+}
+
+fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    if let Some(dir) = path.parent() {
+        fs::create_dir_all(dir).with_context(|| format!("{}: cannot create", dir.display()))?;
+    }
+    let tmp = path.with_extension(format!("tmp{}", std::process::id()));
+    fs::write(&tmp, bytes).with_context(|| format!("{}: cannot write", tmp.display()))?;
+    fs::rename(&tmp, path).with_context(|| format!("{}: cannot write", path.display()))?;
+    Ok(())
+}
+
+/// A query's ranking scored for one method.
+#[derive(Debug, Serialize)]
+struct MethodResult {
+    /// Shapes the method returned before the random tail (every shape for D2).
+    returned: usize,
+    /// 1-based rank of the source shape (partial queries).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    source_rank: Option<usize>,
+    /// The first five results (file stems).
+    top: Vec<String>,
+    nn: Option<f64>,
+    ft: Option<f64>,
+    st: Option<f64>,
+    e: Option<f64>,
+    dcg: Option<f64>,
+    ap: Option<f64>,
+    #[serde(skip)]
+    scores: Option<QueryScores>,
+}
+
+#[derive(Debug, Serialize)]
+struct QueryResult {
+    query: String,
+    class: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    source: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    target_fraction: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    fraction: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    cut: Option<String>,
+    /// Key-components of the query.
+    components: usize,
+    /// Why the query has no key-component record (detection failed), if so.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    error: Option<String>,
+    key_components: MethodResult,
+    d2: MethodResult,
+    /// A seeded random ranking, the chance level of every measure (summarised only).
+    #[serde(skip)]
+    random: MethodResult,
+}
+
+#[derive(Debug, Serialize)]
+struct MethodSummary {
+    #[serde(flatten)]
+    summary: Summary,
+    /// Queries for which the method returned no shape (all ranks random; every query for the
+    /// random ranking).
+    empty: usize,
+    /// Mean 1-based rank of the source shape (partial queries).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    mean_source_rank: Option<f64>,
+    /// Partial queries whose source shape is ranked first.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    source_first: Option<usize>,
+}
+
+#[derive(Debug, Serialize)]
+struct QuerySet {
+    name: String,
+    queries: usize,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    mean_fraction: Option<f64>,
+    key_components: MethodSummary,
+    d2: MethodSummary,
+    /// A seeded random ranking of the same queries: the chance level.
+    random: MethodSummary,
+    /// Both methods on the queries key-components answer (return at least one shape for).
+    answered: Answered,
+    results: Vec<QueryResult>,
+}
+
+#[derive(Debug, Serialize)]
+struct Answered {
+    key_components: MethodSummary,
+    d2: MethodSummary,
+}
+
+#[derive(Debug, Serialize)]
+struct Results {
+    collection: String,
+    shapes: usize,
+    classes: BTreeMap<String, usize>,
+    seed: u64,
+    fraction_range: (f64, f64),
+    detect_params: DetectParams,
+    d2_params: D2Params,
+    /// Collection shapes without key-components (never returned by key-component queries).
+    shapes_without_components: Vec<String>,
+    components_per_shape: f64,
+    query_sets: Vec<QuerySet>,
+}
+
+fn stem(p: &Path) -> String {
+    p.file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| p.display().to_string())
+}
+
+/// Scores one ranking (`order` of collection indices) for a query of `class`.
+fn method_result(
+    order: &[usize],
+    returned: usize,
+    class: &str,
+    classes: &[String],
+    names: &[String],
+    source: Option<usize>,
+) -> MethodResult {
+    let rel: Vec<bool> = order.iter().map(|&j| classes[j] == class).collect();
+    let scores = score(&rel);
+    MethodResult {
+        returned,
+        source_rank: source.and_then(|s| order.iter().position(|&j| j == s).map(|p| p + 1)),
+        top: order.iter().take(5).map(|&j| names[j].clone()).collect(),
+        nn: scores.as_ref().map(|s| s.nn),
+        ft: scores.as_ref().map(|s| s.ft),
+        st: scores.as_ref().map(|s| s.st),
+        e: scores.as_ref().map(|s| s.e),
+        dcg: scores.as_ref().map(|s| s.dcg),
+        ap: scores.as_ref().map(|s| s.ap),
+        scores,
+    }
+}
+
+fn summarize_method(
+    results: &[&QueryResult],
+    pick: impl Fn(&QueryResult) -> &MethodResult,
+) -> MethodSummary {
+    let scores: Vec<Option<QueryScores>> = results.iter().map(|r| pick(r).scores.clone()).collect();
+    let classes: Vec<&str> = results.iter().map(|r| r.class.as_str()).collect();
+    let ranks: Vec<usize> = results.iter().filter_map(|r| pick(r).source_rank).collect();
+    MethodSummary {
+        summary: summarize(&scores, &classes),
+        empty: results.iter().filter(|r| pick(r).returned == 0).count(),
+        mean_source_rank: (!ranks.is_empty())
+            .then(|| ranks.iter().sum::<usize>() as f64 / ranks.len() as f64),
+        source_first: (!ranks.is_empty()).then(|| ranks.iter().filter(|&&r| r == 1).count()),
+    }
+}
+
+/// Key-component ranking of the collection for one query (indices into the collection).
+fn kc_ranking(
+    reader: &Reader,
+    record: &ShapeRecord<DIM>,
+    index_of: &HashMap<PathBuf, usize>,
+) -> Result<Vec<usize>> {
+    let descs: Vec<[f32; DIM]> = record.components.iter().map(|c| c.descriptor).collect();
+    if descs.is_empty() {
+        return Ok(Vec::new());
+    }
+    let ranked = rank(
+        reader,
+        &descs,
+        &record.layout,
+        index_of.len(),
+        &MatchParams::default(),
+    )?;
+    Ok(ranked
+        .iter()
+        .filter_map(|r| index_of.get(&r.path).copied())
+        .collect())
+}
+
+pub fn run(args: Args) -> Result<ExitCode> {
+    let mut builder = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = args.threads {
+        builder = builder.num_threads(n);
+    }
+    let pool = builder.build().context("cannot start the thread pool")?;
+    pool.install(|| run_in_pool(args))
+}
+
+fn run_in_pool(args: Args) -> Result<ExitCode> {
+    let t0 = Instant::now();
+    let kinds: Vec<PartialKind> = if args.partial.is_empty() {
+        PartialKind::ALL.to_vec()
+    } else if args.partial.iter().any(|k| k == "none") {
+        if args.partial.len() > 1 {
+            bail!("--partial none cannot be combined with other kinds");
+        }
+        Vec::new()
+    } else {
+        let mut k: Vec<PartialKind> = args
+            .partial
+            .iter()
+            .map(|s| s.parse::<PartialKind>().map_err(anyhow::Error::msg))
+            .collect::<Result<_>>()?;
+        k.sort();
+        k.dedup();
+        k
+    };
+    if args.d2_pairs == 0 {
+        bail!("--d2-pairs must be at least 1");
+    }
+    let files = list_meshes(&args.collection)?;
+    if files.len() < 2 {
+        bail!(
+            "{}: found {} mesh file(s) (.off, .obj, .ply, .stl); retrieval needs at least 2",
+            args.collection.display(),
+            files.len()
+        );
+    }
+    let classes = match (&args.labels, &args.class_from_name) {
+        (Some(csv), _) => classes_from_csv(&files, &args.collection, csv)?,
+        (None, Some(re)) => classes_from_names(&files, re)?,
+        (None, None) => classes_from_names(&files, DEFAULT_CLASS_REGEX)?,
+    };
+    let names: Vec<String> = files.iter().map(|f| stem(f)).collect();
+    let n = files.len();
+    let detect = detect_args(args.detect.as_deref())?;
+    // exactly what `keycomp index add` uses with these options
+    let params = detect.retrieval_params();
+    let d2_params = D2Params {
+        pairs: args.d2_pairs,
+        seed: sub_seed(args.seed, "d2", 0),
+        ..D2Params::default()
+    };
+    fs::create_dir_all(&args.out)
+        .with_context(|| format!("{}: cannot create the output folder", args.out.display()))?;
+    let cache = RecordCache::new(
+        args.cache.clone().unwrap_or_else(|| args.out.join("cache")),
+        &params,
+    );
+
+    // 1. the collection: index records (product path) and D2 histograms
+    let bar = progress(n as u64, "collection");
+    let analysed: Vec<Result<(ShapeRecord<DIM>, bool, Vec<f64>)>> = files
+        .par_iter()
+        .map(|p| {
+            let r = (|| {
+                let hash = ContentHash::of_file(p)?;
+                let (rec, hit) = cache.record(p, hash, &params)?;
+                let mesh = read_mesh(p)?.mesh;
+                let h = d2(&mesh, &d2_params).with_context(|| format!("{}: D2", p.display()))?;
+                Ok((rec, hit, h))
+            })();
+            bar.inc(1);
+            r
+        })
+        .collect();
+    bar.finish_and_clear();
+    let mut records = Vec::with_capacity(n);
+    let mut hists = Vec::with_capacity(n);
+    let mut hits = 0;
+    for (p, r) in files.iter().zip(analysed) {
+        let (rec, hit, h) = r.with_context(|| format!("{}: cannot analyse", p.display()))?;
+        hits += usize::from(hit);
+        records.push(rec);
+        hists.push(h);
+    }
+    let detect_s = t0.elapsed().as_secs_f64();
+
+    // 2. a fresh index of the collection
+    let index_dir = args.out.join("index");
+    let tmp_dir = args.out.join(format!(".index-{}", std::process::id()));
+    if tmp_dir.exists() {
+        fs::remove_dir_all(&tmp_dir)
+            .with_context(|| format!("{}: cannot remove", tmp_dir.display()))?;
+    }
+    {
+        let mut w = open_writer(&tmp_dir, &params)?;
+        w.add_batch(records.clone())?;
+    }
+    if index_dir.exists() {
+        fs::remove_dir_all(&index_dir)
+            .with_context(|| format!("{}: cannot replace", index_dir.display()))?;
+    }
+    fs::rename(&tmp_dir, &index_dir)
+        .with_context(|| format!("{}: cannot write", index_dir.display()))?;
+    let reader = Reader::open(&index_dir)?;
+    let index_of: HashMap<PathBuf, usize> = reader
+        .shapes()
+        .iter()
+        .filter_map(|s| {
+            files
+                .iter()
+                .position(|f| *f == s.record.path)
+                .map(|i| (s.record.path.clone(), i))
+        })
+        .collect();
+    if index_of.len() != n {
+        bail!(
+            "{}: the index holds {} of the {n} shapes (two files with the same canonical path?)",
+            index_dir.display(),
+            index_of.len()
+        );
+    }
+
+    // 3. whole-shape queries
+    let mut sets = Vec::new();
+    let whole: Vec<QueryResult> = (0..n)
+        .map(|i| -> Result<QueryResult> {
+            let returned = kc_ranking(&reader, &records[i], &index_of)?;
+            let kc_order = complete_ranking(
+                &returned,
+                n,
+                Some(i),
+                sub_seed(args.seed, "whole", i as u64),
+            );
+            let nret = returned.iter().filter(|&&j| j != i).count();
+            let dists: Vec<f64> = hists.iter().map(|h| l1(&hists[i], h)).collect();
+            let d2_order = rank_by_distance(&dists, Some(i));
+            Ok(QueryResult {
+                query: names[i].clone(),
+                class: classes[i].clone(),
+                source: None,
+                target_fraction: None,
+                fraction: None,
+                cut: None,
+                components: records[i].components.len(),
+                error: None,
+                key_components: method_result(&kc_order, nret, &classes[i], &classes, &names, None),
+                d2: method_result(&d2_order, n - 1, &classes[i], &classes, &names, None),
+                random: method_result(
+                    &complete_ranking(&[], n, Some(i), sub_seed(args.seed, "random", i as u64)),
+                    0,
+                    &classes[i],
+                    &classes,
+                    &names,
+                    None,
+                ),
+            })
+        })
+        .collect::<Result<_>>()?;
+    sets.push(query_set("whole", whole));
+
+    // 4. partial queries
+    let per_kind = args.queries.unwrap_or(n);
+    let mut sources: Vec<usize> = (0..n).collect();
+    sources.shuffle(&mut ChaCha8Rng::seed_from_u64(sub_seed(
+        args.seed, "sources", 0,
+    )));
+    let frag_dir = args.out.join("fragments");
+    // fragments of an earlier run (perhaps with other options) would be mistaken for this one's
+    if frag_dir.exists() {
+        fs::remove_dir_all(&frag_dir)
+            .with_context(|| format!("{}: cannot clear", frag_dir.display()))?;
+    }
+    if !kinds.is_empty() && per_kind > 0 {
+        fs::create_dir_all(&frag_dir)
+            .with_context(|| format!("{}: cannot create", frag_dir.display()))?;
+    }
+    let jobs: Vec<(PartialKind, usize)> = kinds
+        .iter()
+        .flat_map(|&k| (0..per_kind).map(move |q| (k, q)))
+        .collect();
+    let bar = progress(jobs.len() as u64, "partial queries");
+    type Fragment = (
+        usize,
+        f64,
+        f64,
+        String,
+        Result<ShapeRecord<DIM>>,
+        Vec<f64>,
+        PathBuf,
+    );
+    let fragments: Vec<Result<Fragment>> = jobs
+        .par_iter()
+        .map(|&(kind, q)| {
+            let r = (|| -> Result<Fragment> {
+                let src = sources[q % n];
+                let mut rng = ChaCha8Rng::seed_from_u64(sub_seed(args.seed, kind.name(), q as u64));
+                let target = rng.random_range(args.area.0..=args.area.1);
+                let mesh = read_mesh(&files[src])?.mesh;
+                let frag = cut_fragment(&mesh, kind, target, &mut rng).with_context(|| {
+                    format!("{}: cannot cut a {kind} fragment", files[src].display())
+                })?;
+                let path = frag_dir.join(format!("{kind}-{q:03}-{}.off", names[src]));
+                let tmp = path.with_extension("off.tmp");
+                keycomp_mesh::write_off(&frag.mesh, &tmp)?;
+                fs::rename(&tmp, &path)
+                    .with_context(|| format!("{}: cannot write", path.display()))?;
+                let h = d2(&frag.mesh, &d2_params)
+                    .with_context(|| format!("{}: D2", path.display()))?;
+                // detection may legitimately fail on a fragment: the query then has no
+                // key-components (its ranking is random), which is reported
+                let rec = ContentHash::of_file(&path)
+                    .map_err(anyhow::Error::from)
+                    .and_then(|hash| cache.record(&path, hash, &params).map(|(r, _)| r));
+                Ok((src, target, frag.fraction, frag.detail, rec, h, path))
+            })();
+            bar.inc(1);
+            r
+        })
+        .collect();
+    bar.finish_and_clear();
+    let mut by_kind: BTreeMap<PartialKind, Vec<QueryResult>> = BTreeMap::new();
+    for ((kind, q), f) in jobs.iter().zip(fragments) {
+        let (src, target, fraction, detail, rec, h, path) = f?;
+        let (returned, components, error) = match &rec {
+            Ok(r) => (kc_ranking(&reader, r, &index_of)?, r.components.len(), None),
+            Err(e) => (Vec::new(), 0, Some(format!("{e:#}"))),
+        };
+        let kc_order = complete_ranking(
+            &returned,
+            n,
+            None,
+            sub_seed(args.seed, &format!("{kind}-tail"), *q as u64),
+        );
+        let dists: Vec<f64> = hists.iter().map(|x| l1(&h, x)).collect();
+        let d2_order = rank_by_distance(&dists, None);
+        let class = &classes[src];
+        by_kind.entry(*kind).or_default().push(QueryResult {
+            query: stem(&path),
+            class: class.clone(),
+            source: Some(names[src].clone()),
+            target_fraction: Some(target),
+            fraction: Some(fraction),
+            cut: Some(detail),
+            components,
+            error,
+            key_components: method_result(
+                &kc_order,
+                returned.len(),
+                class,
+                &classes,
+                &names,
+                Some(src),
+            ),
+            d2: method_result(&d2_order, n, class, &classes, &names, Some(src)),
+            random: method_result(
+                &complete_ranking(
+                    &[],
+                    n,
+                    None,
+                    sub_seed(args.seed, &format!("{kind}-random"), *q as u64),
+                ),
+                0,
+                class,
+                &classes,
+                &names,
+                Some(src),
+            ),
+        });
+    }
+    for (kind, results) in by_kind {
+        sets.push(query_set(kind.name(), results));
+    }
+
+    // 5. outputs
+    let mut class_counts: BTreeMap<String, usize> = BTreeMap::new();
+    for c in &classes {
+        *class_counts.entry(c.clone()).or_default() += 1;
+    }
+    let results = Results {
+        collection: args.collection.display().to_string(),
+        shapes: n,
+        classes: class_counts,
+        seed: args.seed,
+        fraction_range: args.area,
+        detect_params: params,
+        d2_params,
+        shapes_without_components: records
+            .iter()
+            .zip(&names)
+            .filter(|(r, _)| r.components.is_empty())
+            .map(|(_, s)| s.clone())
+            .collect(),
+        components_per_shape: records.iter().map(|r| r.components.len()).sum::<usize>() as f64
+            / n as f64,
+        query_sets: sets,
+    };
+    let json = serde_json::to_vec_pretty(&results).context("cannot serialise the results")?;
+    write_atomic(&args.out.join("results.json"), &json)?;
+    for set in &results.query_sets {
+        let curves = vec![
+            Curve {
+                label: "key-components".into(),
+                values: set.key_components.summary.mean.pr.clone(),
+            },
+            Curve {
+                label: "D2".into(),
+                values: set.d2.summary.mean.pr.clone(),
+            },
+            Curve {
+                label: "random".into(),
+                values: set.random.summary.mean.pr.clone(),
+            },
+        ];
+        let title = format!(
+            "{} queries ({}) on {}",
+            set.name,
+            set.queries,
+            stem(&args.collection)
+        );
+        write_atomic(
+            &args.out.join(format!("pr-{}.svg", set.name)),
+            pr_svg(&title, &curves).as_bytes(),
+        )?;
+    }
+    let text = report_text(
+        &results,
+        &args,
+        &detect.preset.to_string(),
+        hits,
+        detect_s,
+        t0.elapsed().as_secs_f64(),
+    )?;
+    output::print_text(&text)?;
+    Ok(ExitCode::SUCCESS)
+}
+
+fn query_set(name: &str, results: Vec<QueryResult>) -> QuerySet {
+    let fr: Vec<f64> = results.iter().filter_map(|r| r.fraction).collect();
+    let all: Vec<&QueryResult> = results.iter().collect();
+    let answered: Vec<&QueryResult> = results
+        .iter()
+        .filter(|r| r.key_components.returned > 0)
+        .collect();
+    let key_components = summarize_method(&all, |r| &r.key_components);
+    let d2 = summarize_method(&all, |r| &r.d2);
+    let random = summarize_method(&all, |r| &r.random);
+    let answered = Answered {
+        key_components: summarize_method(&answered, |r| &r.key_components),
+        d2: summarize_method(&answered, |r| &r.d2),
+    };
+    QuerySet {
+        name: name.to_string(),
+        queries: results.len(),
+        mean_fraction: (!fr.is_empty()).then(|| fr.iter().sum::<f64>() / fr.len() as f64),
+        key_components,
+        d2,
+        random,
+        answered,
+        results,
+    }
+}
+
+fn report_text(
+    r: &Results,
+    args: &Args,
+    preset: &str,
+    hits: usize,
+    detect_s: f64,
+    total_s: f64,
+) -> Result<String> {
+    let mut s = String::new();
+    writeln!(
+        s,
+        "{}: {} shapes, {} classes ({}); {:.2} key-components per shape, {} shapes without any",
+        r.collection,
+        r.shapes,
+        r.classes.len(),
+        r.classes
+            .iter()
+            .map(|(c, k)| format!("{c} {k}"))
+            .collect::<Vec<_>>()
+            .join(", "),
+        r.components_per_shape,
+        r.shapes_without_components.len()
+    )?;
+    writeln!(
+        s,
+        "preset {}, seed {}, fragments keep {:.0}-{:.0} % of the area\n",
+        preset,
+        r.seed,
+        100.0 * r.fraction_range.0,
+        100.0 * r.fraction_range.1
+    )?;
+    writeln!(
+        s,
+        "| queries | n | area | method | NN | FT | ST | E | DCG | mAP | source rank | source 1st | no result |"
+    )?;
+    writeln!(
+        s,
+        "|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+    )?;
+    for set in &r.query_sets {
+        for (label, m) in [
+            ("key-components", &set.key_components),
+            ("D2", &set.d2),
+            ("random", &set.random),
+        ] {
+            let x = &m.summary.mean;
+            writeln!(
+                s,
+                "| {} | {} | {} | {label} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {} | {} | {} |",
+                set.name,
+                m.summary.queries,
+                set.mean_fraction
+                    .map_or("100 %".to_string(), |f| format!("{:.0} %", 100.0 * f)),
+                x.nn,
+                x.ft,
+                x.st,
+                x.e,
+                x.dcg,
+                x.ap,
+                m.mean_source_rank
+                    .map_or("-".to_string(), |v| format!("{v:.1}")),
+                m.source_first.map_or("-".to_string(), |v| format!("{v}")),
+                if label == "random" {
+                    "-".to_string()
+                } else {
+                    m.empty.to_string()
+                }
+            )?;
+        }
+    }
+    // the queries key-components answer
+    writeln!(
+        s,
+        "\nqueries for which key-components return at least one shape (both methods on the same \
+         queries):\n"
+    )?;
+    writeln!(
+        s,
+        "| queries | answered | KC NN | KC FT | KC mAP | KC source rank | D2 NN | D2 FT | D2 mAP | D2 source rank |"
+    )?;
+    writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|")?;
+    let num = |v: f64| {
+        if v.is_finite() {
+            format!("{v:.3}")
+        } else {
+            "-".to_string()
+        }
+    };
+    let rank = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.1}"));
+    for set in &r.query_sets {
+        let (k, d) = (&set.answered.key_components, &set.answered.d2);
+        writeln!(
+            s,
+            "| {} | {} of {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            set.name,
+            k.summary.queries + k.summary.undefined,
+            set.queries,
+            num(k.summary.mean.nn),
+            num(k.summary.mean.ft),
+            num(k.summary.mean.ap),
+            rank(k.mean_source_rank),
+            num(d.summary.mean.nn),
+            num(d.summary.mean.ft),
+            num(d.summary.mean.ap),
+            rank(d.mean_source_rank),
+        )?;
+    }
+    // per class, whole-shape queries
+    if let Some(whole) = r.query_sets.first() {
+        writeln!(
+            s,
+            "\nwhole-shape queries per class (mean; components = key-components per shape):\n"
+        )?;
+        writeln!(
+            s,
+            "| class | shapes | components | KC NN | KC FT | KC mAP | D2 NN | D2 FT | D2 mAP |"
+        )?;
+        writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|")?;
+        for class in r.classes.keys() {
+            let rs: Vec<&QueryResult> =
+                whole.results.iter().filter(|q| &q.class == class).collect();
+            let mean = |f: &dyn Fn(&QueryResult) -> Option<f64>| {
+                let v: Vec<f64> = rs.iter().filter_map(|q| f(q)).collect();
+                if v.is_empty() {
+                    "-".to_string()
+                } else {
+                    format!("{:.3}", v.iter().sum::<f64>() / v.len() as f64)
+                }
+            };
+            writeln!(
+                s,
+                "| {class} | {} | {} | {} | {} | {} | {} | {} | {} |",
+                rs.len(),
+                mean(&|q| Some(q.components as f64)).replace(".000", ""),
+                mean(&|q| q.key_components.nn),
+                mean(&|q| q.key_components.ft),
+                mean(&|q| q.key_components.ap),
+                mean(&|q| q.d2.nn),
+                mean(&|q| q.d2.ft),
+                mean(&|q| q.d2.ap)
+            )?;
+        }
+    }
+    let undefined: usize = r
+        .query_sets
+        .iter()
+        .map(|q| q.key_components.summary.undefined)
+        .sum();
+    if undefined > 0 {
+        writeln!(
+            s,
+            "\n{undefined} queries left out of the means: their class has no other shape"
+        )?;
+    }
+    writeln!(
+        s,
+        "\nPSB measures (micro-averaged over queries; macro-averages in results.json); \
+         'random': a seeded shuffle, the chance level; 'no result': queries for which the \
+         method returned no shape (ranked at random).\n\
+         time: {total_s:.1} s ({detect_s:.1} s analysing the collection, {hits} of {} records from the cache); \
+         wrote {}",
+        r.shapes,
+        args.out.join("results.json").display()
+    )?;
+    Ok(s)
+}
