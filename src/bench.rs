@@ -25,6 +25,10 @@ pub enum BenchCommand {
     /// the paper's Tables 1-3 (ours beside the paper's) and Figs. 7-9 (Section 4).
     #[command(after_help = crate::repeatability::EXAMPLES)]
     Repeatability(crate::repeatability::Args),
+    /// Retrieval quality on a labelled collection: whole-shape and partial queries, PSB
+    /// measures (NN, FT, ST, E, DCG, mAP, precision-recall), key-components against D2.
+    #[command(after_help = crate::bench_retrieval::EXAMPLES)]
+    Retrieval(crate::bench_retrieval::Args),
 }
 
 /// Arguments of `keycomp bench detect`.
@@ -52,9 +56,13 @@ struct Row {
     vertices: usize,
     keypoints: usize,
     components: usize,
+    /// Vertices of the mesh the fronts ran on (the proxy's when there is one).
+    geodesic_vertices: usize,
     read_ms: f64,
     harris_ms: f64,
     geodesic_ms: f64,
+    /// The part of `geodesic_ms` spent building the proxy.
+    simplify_ms: f64,
     mds_ms: f64,
     cluster_ms: f64,
     extract_ms: f64,
@@ -77,6 +85,7 @@ pub fn run(cmd: BenchCommand) -> Result<ExitCode> {
     match cmd {
         BenchCommand::Detect(args) => detect_bench(args),
         BenchCommand::Repeatability(args) => crate::repeatability::run_cmd(args),
+        BenchCommand::Retrieval(args) => crate::bench_retrieval::run(args),
     }
 }
 
@@ -91,8 +100,8 @@ fn detect_bench(args: DetectBenchArgs) -> Result<ExitCode> {
     let runs = args.runs.max(1);
     let mut rows = Vec::new();
     for path in &args.meshes {
-        let mut samples: Vec<[f64; 7]> = Vec::with_capacity(runs);
-        let mut last = (0, 0, 0);
+        let mut samples: Vec<[f64; 8]> = Vec::with_capacity(runs);
+        let mut last = (0, 0, 0, 0);
         for _ in 0..runs {
             let t0 = Instant::now();
             let mesh = read_mesh(path)?.mesh;
@@ -103,12 +112,13 @@ fn detect_bench(args: DetectBenchArgs) -> Result<ExitCode> {
             let total = t0.elapsed().as_secs_f64() * 1e3;
             let t = det.timings;
             samples.push([
-                read, t.harris, t.geodesic, t.mds, t.cluster, t.extract, total,
+                read, t.harris, t.geodesic, t.mds, t.cluster, t.extract, total, t.simplify,
             ]);
             last = (
                 mesh.num_vertices(),
                 det.keypoints.len(),
                 det.components.len(),
+                det.geodesic_vertices,
             );
         }
         let col = |i: usize| median(samples.iter().map(|s| s[i]).collect());
@@ -117,9 +127,11 @@ fn detect_bench(args: DetectBenchArgs) -> Result<ExitCode> {
             vertices: last.0,
             keypoints: last.1,
             components: last.2,
+            geodesic_vertices: last.3,
             read_ms: col(0),
             harris_ms: col(1),
             geodesic_ms: col(2),
+            simplify_ms: col(7),
             mds_ms: col(3),
             cluster_ms: col(4),
             extract_ms: col(5),
@@ -134,14 +146,28 @@ fn detect_bench(args: DetectBenchArgs) -> Result<ExitCode> {
     let mut s = String::new();
     writeln!(
         s,
-        "preset {}, {threads} threads, median of {runs} runs, times in ms\n",
-        args.detect.preset
+        "preset {}, {threads} threads, median of {runs} runs, times in ms; geodesic: {}\n",
+        args.detect.preset,
+        if params.geodesic.proxy_vertices == 0 {
+            format!(
+                "full mesh, corners ≥ {}° split",
+                params.geodesic.min_split_angle_degrees
+            )
+        } else {
+            format!(
+                "proxy of ≤ {} vertices, corners ≥ {}° split",
+                params.geodesic.proxy_vertices, params.geodesic.min_split_angle_degrees
+            )
+        }
     )?;
     writeln!(
         s,
-        "| mesh | vertices | keypoints | components | read | harris | geodesic | mds | cluster | extract | total |"
+        "| mesh | vertices | keypoints | components | fronts on | read | harris | geodesic (simplify) | mds | cluster | extract | total |"
     )?;
-    writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")?;
+    writeln!(
+        s,
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+    )?;
     for r in &rows {
         let name = std::path::Path::new(&r.mesh)
             .file_name()
@@ -149,13 +175,15 @@ fn detect_bench(args: DetectBenchArgs) -> Result<ExitCode> {
             .unwrap_or_else(|| r.mesh.clone());
         writeln!(
             s,
-            "| {name} | {} | {} | {} | {:.0} | {:.0} | {:.0} | {:.0} | {:.1} | {:.1} | {:.0} |",
+            "| {name} | {} | {} | {} | {} | {:.0} | {:.0} | {:.0} ({:.0}) | {:.0} | {:.1} | {:.1} | {:.0} |",
             r.vertices,
             r.keypoints,
             r.components,
+            r.geodesic_vertices,
             r.read_ms,
             r.harris_ms,
             r.geodesic_ms,
+            r.simplify_ms,
             r.mds_ms,
             r.cluster_ms,
             r.extract_ms,

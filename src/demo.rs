@@ -1,108 +1,420 @@
-//! `keycomp demo`: the pipeline on a shape generated in code, so it runs anywhere with no files.
+//! `keycomp demo`: the whole product on a collection generated in code, so it runs anywhere
+//! with no files: generate the shapes, index them, query the index with held-out shapes and
+//! with fragments cut from indexed shapes, print a table and write an HTML report.
 
 use std::fmt::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
-use anyhow::Result;
-use keycomp_components::{DetectParams, detect};
-use keycomp_mesh::synth;
+use anyhow::{Context, Result, bail};
+use keycomp_components::DetectParams;
+use keycomp_describe::DIM;
+use keycomp_index::{ContentHash, ShapeRecord, canonical_path};
+use keycomp_mesh::{Mesh, Point3, Topology, Vector3, cut, geometry};
+use keycomp_retrieval::{MatchParams, Ranked, rank};
+use keycomp_shapes::{Class, GenerateParams, Shape};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
 
-use crate::{detect::component_colors, output};
+use crate::detect::DetectArgs;
+use crate::index_cmd::{open_reader_for_query, open_writer, progress, record_of};
+use crate::match_cmd::{Analysed, analyse};
+use crate::{output, report};
+
+pub const EXAMPLES: &str = "Examples:
+  keycomp demo                         # ./demo-out (meshes, queries, report) and ./index
+  keycomp demo --out /tmp/kc --index /tmp/kc/index
+  keycomp demo --per-class 3 --vertices 8000    # a smaller, faster run";
 
 /// Arguments of `keycomp demo`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Also write the demo shape with its key-components coloured to this PLY file.
-    #[arg(long, value_name = "OUT")]
-    pub ply: Option<PathBuf>,
+    /// Work folder: the generated meshes go to DIR/collection, the queries to DIR/queries,
+    /// the HTML report to DIR/report.
+    #[arg(long, default_value = "demo-out", value_name = "DIR")]
+    pub out: PathBuf,
+    /// Index directory the collection is added to (shapes already there are kept; files
+    /// indexed before with the same content are skipped).
+    #[arg(long, default_value = "index", value_name = "DIR")]
+    pub index: PathBuf,
+    /// Indexed shapes per class (the collection has 7 classes).
+    #[arg(long, default_value_t = 6, value_name = "N")]
+    pub per_class: usize,
+    /// Vertices per generated shape (approximately; at least 4000). The default keeps the
+    /// whole demo under a minute on two cores.
+    #[arg(long, default_value_t = 15_000, value_name = "N")]
+    pub vertices: usize,
+    /// Seed of the generated collection and of the cuts (`--seed` is SMACOF's, as elsewhere).
+    #[arg(long, default_value_t = 2013, value_name = "S")]
+    pub shape_seed: u64,
+    /// Results shown per query.
+    #[arg(short = 'k', long = "top", default_value_t = 3)]
+    pub k: usize,
+    #[command(flatten)]
+    pub detect: DetectArgs,
+}
+
+/// How a query was made.
+#[derive(Debug, Clone, Copy)]
+enum Kind {
+    /// A held-out instance of a class, not in the index.
+    Whole,
+    /// The part of an indexed shape on one side of a plane.
+    Plane,
+    /// A ball of edge-path distance around a vertex of an indexed shape.
+    Ball,
+}
+
+struct Query {
+    name: String,
+    class: Class,
+    kind: Kind,
+    /// Indexed shape the fragment was cut from.
+    source: Option<String>,
+    /// Kept fraction of the source's area.
+    kept: f64,
+    path: PathBuf,
+}
+
+/// The class of a collection file, from its name (`bird-03.off` → bird).
+fn class_of(path: &Path) -> Option<Class> {
+    let stem = path.file_stem()?.to_str()?;
+    Class::from_name(stem.rsplit_once('-')?.0)
+}
+
+/// The faces kept, in decreasing `key`, until their area reaches `fraction` of the total.
+fn keep_by_key(mesh: &Mesh, key: &[f64], fraction: f64) -> Vec<bool> {
+    let areas = geometry::face_areas(mesh);
+    let total: f64 = areas.iter().sum();
+    let mut order: Vec<usize> = (0..mesh.num_faces()).collect();
+    order.sort_by(|&a, &b| key[b].total_cmp(&key[a]).then(a.cmp(&b)));
+    let mut keep = vec![false; mesh.num_faces()];
+    let mut acc = 0.0;
+    for f in order {
+        if acc >= fraction * total {
+            break;
+        }
+        keep[f] = true;
+        acc += areas[f];
+    }
+    keep
+}
+
+/// The part of `mesh` on the positive side of a random plane, placed so about `fraction` of
+/// the area is kept ([`cut::cut_by_plane`]).
+fn plane_cut(mesh: &Mesh, fraction: f64, rng: &mut ChaCha8Rng) -> Mesh {
+    let (z, a): (f64, f64) = (
+        rng.random_range(-1.0..1.0),
+        rng.random_range(0.0..std::f64::consts::TAU),
+    );
+    let r = (1.0 - z * z).sqrt();
+    let normal = Vector3::new(r * a.cos(), r * a.sin(), z);
+    let centroid = |f: usize| {
+        let [p, q, s] = mesh.triangle(f);
+        (p.coords + q.coords + s.coords) / 3.0
+    };
+    let key: Vec<f64> = (0..mesh.num_faces())
+        .map(|f| centroid(f).dot(&normal))
+        .collect();
+    let keep = keep_by_key(mesh, &key, fraction);
+    // The plane at the smallest kept height: cut_by_plane keeps exactly those faces (up to
+    // faces whose centroids tie with it).
+    let threshold = (0..mesh.num_faces())
+        .filter(|&f| keep[f])
+        .map(|f| key[f])
+        .fold(f64::INFINITY, f64::min);
+    let point = Point3::from(normal * (threshold - 1e-12 * threshold.abs().max(1.0)));
+    cut::cut_by_plane(mesh, point, normal).0
+}
+
+/// The faces nearest (along edges) a random vertex, about `fraction` of the area
+/// ([`cut::submesh`]).
+fn ball_cut(mesh: &Mesh, fraction: f64, rng: &mut ChaCha8Rng) -> Mesh {
+    let topo = Topology::new(mesh);
+    let seed = rng.random_range(0..mesh.num_vertices()) as u32;
+    let d = report::edge_distances(mesh, &topo, seed);
+    let key: Vec<f64> = mesh
+        .faces
+        .iter()
+        .map(|f| -f.iter().map(|&v| d[v as usize]).fold(0.0, f64::max))
+        .collect();
+    let keep = keep_by_key(mesh, &key, fraction);
+    cut::submesh(mesh, |f| keep[f]).0
+}
+
+/// Indexes `files` into `index` exactly as `keycomp index add` does ([`open_writer`], which
+/// refuses an index made with other parameters, [`record_of`], skipping files already indexed
+/// with the same content). Returns (added or replaced, unchanged).
+fn index_files(index: &Path, files: &[PathBuf], params: &DetectParams) -> Result<(usize, usize)> {
+    let mut writer = open_writer(index, params)?;
+    let known: Vec<Option<ContentHash>> = files
+        .iter()
+        .map(|p| writer.lookup(&canonical_path(p)).map(|(_, h)| h))
+        .collect();
+    let bar = progress(files.len() as u64, "indexing");
+    let results: Vec<Option<Result<ShapeRecord<DIM>>>> = files
+        .par_iter()
+        .zip(known)
+        .map(|(p, old)| {
+            let r = match ContentHash::of_file(p) {
+                Err(e) => Some(Err(e.into())),
+                Ok(hash) if old == Some(hash) => None,
+                Ok(hash) => Some(record_of(p, hash, params)),
+            };
+            bar.inc(1);
+            r
+        })
+        .collect();
+    bar.finish_and_clear();
+    let mut records = Vec::new();
+    let mut unchanged = 0;
+    for (p, r) in files.iter().zip(results) {
+        match r {
+            None => unchanged += 1,
+            Some(Ok(rec)) => records.push(rec),
+            Some(Err(e)) => bail!("{}: indexing failed: {e:#}", p.display()),
+        }
+    }
+    let mut changed = 0;
+    if !records.is_empty() {
+        let s = writer.add_batch(records)?;
+        changed = s.added + s.replaced;
+        unchanged += s.skipped;
+    }
+    Ok((changed, unchanged))
 }
 
 pub fn run(args: Args) -> Result<ExitCode> {
-    let t0 = Instant::now();
-    let mesh = synth::textured_protrusion_sphere(6);
-    let dirs = synth::protrusion_directions();
-    let gen_ms = t0.elapsed().as_secs_f64() * 1e3;
-    let params = DetectParams::default();
-    let t = Instant::now();
-    let det = detect(&mesh, &params)?;
-    let total_ms = t.elapsed().as_secs_f64() * 1e3;
+    if args.per_class == 0 {
+        bail!("--per-class must be at least 1");
+    }
+    let t_all = Instant::now();
+    let params = args.detect.retrieval_params();
+    let gen_params = GenerateParams {
+        seed: args.shape_seed,
+        target_vertices: args.vertices,
+        ..GenerateParams::default()
+    };
+    let collection_dir = args.out.join("collection");
+    let query_dir = args.out.join("queries");
+    for d in [&collection_dir, &query_dir] {
+        std::fs::create_dir_all(d)
+            .with_context(|| format!("{}: cannot create the directory", d.display()))?;
+    }
 
+    // 1. Generate: per class, `per_class` indexed instances and one held-out query instance.
+    let t = Instant::now();
+    let n_shapes = Class::ALL.len() * (args.per_class + 1);
+    let bar = progress(n_shapes as u64, "generating shapes");
+    let shapes: Vec<Shape> =
+        keycomp_shapes::collection(&Class::ALL, args.per_class + 1, &gen_params, &|_| {
+            bar.inc(1)
+        })?;
+    bar.finish_and_clear();
+    let gen_s = t.elapsed().as_secs_f64();
+    let mut files = Vec::new();
+    for s in &shapes {
+        let held_out = s.instance == args.per_class;
+        let dir = if held_out {
+            &query_dir
+        } else {
+            &collection_dir
+        };
+        let path = dir.join(format!("{}.off", s.name));
+        keycomp_mesh::write_off(&s.mesh, &path)?;
+        if !held_out {
+            files.push(path);
+        }
+    }
+    let mean_v = shapes.iter().map(|s| s.mesh.num_vertices()).sum::<usize>() / shapes.len();
+    eprintln!(
+        "generated {} shapes ({} classes, about {mean_v} vertices each) in {gen_s:.1} s",
+        shapes.len(),
+        Class::ALL.len()
+    );
+
+    // 2. Index the collection.
+    let t = Instant::now();
+    let (changed, unchanged) = index_files(&args.index, &files, &params)?;
+    let index_s = t.elapsed().as_secs_f64();
+    eprintln!(
+        "indexed {} into {}: {changed} added, {unchanged} already there, in {index_s:.1} s",
+        collection_dir.display(),
+        args.index.display()
+    );
+
+    // 3. Queries: each class's held-out instance whole, and a fragment (plane cut or ball,
+    //    alternating by class) of one indexed instance keeping 30–60 % of its area.
+    let mut rng = ChaCha8Rng::seed_from_u64(args.shape_seed ^ 0x5EED_C075);
+    let mut queries = Vec::new();
+    for (ci, &class) in Class::ALL.iter().enumerate() {
+        let held = shapes
+            .iter()
+            .find(|s| s.class == class && s.instance == args.per_class)
+            .context("held-out shape missing")?;
+        queries.push(Query {
+            name: held.name.clone(),
+            class,
+            kind: Kind::Whole,
+            source: None,
+            kept: 1.0,
+            path: query_dir.join(format!("{}.off", held.name)),
+        });
+        let src = shapes
+            .iter()
+            .find(|s| s.class == class && s.instance == ci % args.per_class)
+            .context("source shape missing")?;
+        let fraction = rng.random_range(0.3..0.6);
+        let (kind, part) = if ci % 2 == 0 {
+            (Kind::Plane, plane_cut(&src.mesh, fraction, &mut rng))
+        } else {
+            (Kind::Ball, ball_cut(&src.mesh, fraction, &mut rng))
+        };
+        let kept = geometry::total_area(&part) / geometry::total_area(&src.mesh);
+        let tag = match kind {
+            Kind::Plane => "plane",
+            _ => "ball",
+        };
+        let name = format!("{}-{tag}{:02.0}", src.name, kept * 100.0);
+        let path = query_dir.join(format!("{name}.off"));
+        keycomp_mesh::write_off(&part, &path)?;
+        queries.push(Query {
+            name,
+            class,
+            kind,
+            source: Some(src.name.clone()),
+            kept,
+            path,
+        });
+    }
+
+    // 4. Run them as `keycomp query` does (with the index's detection parameters).
+    let (reader, params) = open_reader_for_query(&args.index, &args.detect)?;
+    let bar = progress(queries.len() as u64, "querying");
+    let mut runs: Vec<(Analysed, Vec<Ranked>, f64)> = Vec::new();
+    for q in &queries {
+        let t = Instant::now();
+        let a = analyse(&q.path, &params)?;
+        let (descs, layout) = a.view();
+        let ranked = rank(&reader, &descs, layout, args.k, &MatchParams::default())?;
+        runs.push((a, ranked, t.elapsed().as_secs_f64()));
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+
+    // 5. Table.
     let mut s = String::new();
     writeln!(
         s,
-        "keycomp demo: a sphere with {} textured protrusions, generated in code in {gen_ms:.0} ms \
-         ({} vertices, {} faces)",
-        dirs.len(),
-        mesh.num_vertices(),
-        mesh.num_faces()
+        "keycomp demo: {} classes × {} shapes generated in code and indexed; {} queries \
+         (each class: a held-out shape, and a fragment cut from an indexed one)",
+        Class::ALL.len(),
+        args.per_class,
+        queries.len()
     )?;
     writeln!(
         s,
-        "key-components with the paper's KC-1 preset: {} keypoints (1 % of vertices), {} in no cluster",
-        det.keypoints.len(),
-        det.unclustered.len()
+        "{:<22} {:<10} {:>5} {:>5}  {:<56} {:<4} {:>6}",
+        "query", "class", "kept", "comps", "top results (score)", "top1", "time"
     )?;
-    let strongest: Vec<String> = det
-        .keypoints
-        .iter()
-        .take(10)
-        .map(|k| k.to_string())
-        .collect();
-    writeln!(
-        s,
-        "strongest Harris 3D keypoints (vertex ids, best first): {} …",
-        strongest.join(", ")
-    )?;
-    writeln!(
-        s,
-        "{:>4}  {:>8}  {:>9}  {:>9}  {:>7}  protrusion (angle to its axis)",
-        "id", "centre", "keypoints", "vertices", "area %"
-    )?;
-    let mut found = vec![false; dirs.len()];
-    for c in &det.components {
-        let u = mesh.positions[c.center as usize].coords.normalize();
-        let (nearest, angle) = dirs
+    let (mut hits, mut whole_hits, mut part_hits, mut source_first) = (0, 0, 0, 0);
+    for (q, (a, ranked, secs)) in queries.iter().zip(&runs) {
+        let top: Vec<String> = ranked
             .iter()
-            .enumerate()
-            .map(|(i, d)| (i, u.dot(d).clamp(-1.0, 1.0).acos()))
-            .min_by(|a, b| a.1.total_cmp(&b.1))
-            .unwrap_or((0, f64::NAN));
-        found[nearest] = true;
+            .map(|r| {
+                let stem = r
+                    .path
+                    .file_stem()
+                    .map(|x| x.to_string_lossy().into_owned())
+                    .unwrap_or_default();
+                format!("{stem} ({:.2})", r.result.score)
+            })
+            .collect();
+        let first = ranked.first();
+        let hit = first.and_then(|r| class_of(&r.path)) == Some(q.class);
+        if hit {
+            hits += 1;
+            match q.kind {
+                Kind::Whole => whole_hits += 1,
+                _ => part_hits += 1,
+            }
+        }
+        if let (Some(src), Some(r)) = (&q.source, first)
+            && r.path.file_stem().and_then(|x| x.to_str()) == Some(src.as_str())
+        {
+            source_first += 1;
+        }
         writeln!(
             s,
-            "{:>4}  {:>8}  {:>9}  {:>9}  {:>7.2}  #{} ({:.0}°)",
-            c.id,
-            c.center,
-            c.keypoints.len(),
-            c.vertices.len(),
-            c.area * 100.0,
-            nearest,
-            angle.to_degrees()
+            "{:<22} {:<10} {:>4.0}% {:>5}  {:<56} {:<4} {:>5.2}s",
+            q.name,
+            q.class.name(),
+            q.kept * 100.0,
+            a.description.components.len(),
+            if top.is_empty() {
+                "(no match)".to_string()
+            } else {
+                top.join(", ")
+            },
+            if hit { "hit" } else { "miss" },
+            secs
         )?;
     }
+    let n_whole = queries
+        .iter()
+        .filter(|q| matches!(q.kind, Kind::Whole))
+        .count();
+    let n_part = queries.len() - n_whole;
     writeln!(
         s,
-        "{} of {} protrusions found as key-components",
-        found.iter().filter(|f| **f).count(),
-        dirs.len()
+        "top-1 class: {hits}/{} hits (held-out whole shapes {whole_hits}/{n_whole}, fragments \
+         {part_hits}/{n_part}); fragments whose source shape ranks first: {source_first}/{n_part}",
+        queries.len()
     )?;
-    let t = det.timings;
+
+    // 6. Report.
+    let t = Instant::now();
+    let entries: Vec<report::QueryEntry> = queries
+        .iter()
+        .zip(&runs)
+        .map(|(q, (a, ranked, _))| report::QueryEntry {
+            title: q.name.clone(),
+            note: Some(match (&q.kind, &q.source) {
+                (Kind::Whole, _) => format!(
+                    "class {}: a held-out shape (not in the index)",
+                    q.class.name()
+                ),
+                (kind, src) => format!(
+                    "class {}: {} of {} keeping {:.0} % of its area",
+                    q.class.name(),
+                    if matches!(kind, Kind::Plane) {
+                        "a plane cut"
+                    } else {
+                        "a geodesic ball"
+                    },
+                    src.as_deref().unwrap_or("?"),
+                    q.kept * 100.0
+                ),
+            }),
+            query: a,
+            results: ranked,
+        })
+        .collect();
+    let page = report::write_report(
+        &args.out.join("report"),
+        &reader,
+        &entries,
+        &report::ReportParams::default(),
+    )?;
+    let report_s = t.elapsed().as_secs_f64();
     writeln!(
         s,
-        "time: harris {:.0} ms, geodesic {:.0}, mds {:.0}, cluster {:.1}, extract {:.1}, total {total_ms:.0} ms",
-        t.harris, t.geodesic, t.mds, t.cluster, t.extract
+        "report: {} (rendered in {report_s:.1} s); total {:.1} s",
+        page.display(),
+        t_all.elapsed().as_secs_f64()
     )?;
-    if let Some(out) = &args.ply {
-        keycomp_mesh::write_ply_colored(&mesh, &component_colors(&mesh, &det), out)?;
-        writeln!(s, "wrote {}", out.display())?;
-    } else {
-        writeln!(
-            s,
-            "(add --ply demo.ply to write the shape with its key-components coloured)"
-        )?;
-    }
     output::print_text(&s)?;
     Ok(ExitCode::SUCCESS)
 }

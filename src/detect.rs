@@ -6,9 +6,11 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
-use keycomp_components::{DetectParams, Detection, Preset, detect};
+use keycomp_bench::experiment::Method;
+use keycomp_components::{DetectParams, Detection, GeodesicOptions, Preset, detect};
 use keycomp_harris::HarrisParams;
 use keycomp_mesh::{Mesh, read_mesh};
+use keycomp_mser::MserParams;
 use serde::Serialize;
 
 use crate::keypoints::HarrisArgs;
@@ -17,6 +19,7 @@ use crate::{colors, output};
 pub const EXAMPLES: &str = "Examples:
   keycomp detect cat0.off
   keycomp detect cat0.off --preset kc3 --json > cat0.json
+  keycomp detect cat0.off --method mser-kc --json > cat0-mser-kc.json
   keycomp detect horse.ply --r 0.2 --t 0.4 --n 25 --ply horse-components.ply";
 
 /// Arguments of `keycomp detect`.
@@ -32,6 +35,13 @@ pub struct Args {
     /// Write the mesh with each key-component in its own colour (grey elsewhere), binary PLY.
     #[arg(long, value_name = "OUT")]
     pub ply: Option<PathBuf>,
+    /// Detection method: kc (key-components, the paper's method), mser (every
+    /// diffusion-geometric maximally stable component, Litman et al. 2011) or mser-kc (the MSER
+    /// key-components of Section 4.4: the smallest MSER components covering the HKS
+    /// keypoints). The MSER methods ignore the key-component options and compute 60
+    /// Laplace-Beltrami eigenpairs of the full mesh.
+    #[arg(long, default_value = "kc", value_name = "METHOD")]
+    pub method: Method,
 }
 
 /// Detection options shared by the commands that detect key-components.
@@ -51,12 +61,28 @@ pub struct DetectArgs {
     /// Fewest keypoints in a cluster, N.
     #[arg(long = "n", value_name = "N")]
     pub n: Option<usize>,
+    /// Scale N down for shapes with fewer than K keypoints: N·keypoints/K, at least 5 (not in
+    /// the paper: lets meshes under ~20k vertices have key-components). 0 = the paper's fixed
+    /// N. Default: 0 for `detect`, 250 for `index add`, `query` and `match`.
+    #[arg(long = "n-reference", value_name = "K")]
+    pub n_reference: Option<usize>,
     /// Factor σ on the enclosing sphere's radius that bounds region growing [default: 1.5].
     #[arg(long, value_name = "S")]
     pub sigma: Option<f64>,
     /// Seed of SMACOF's random starts [default: 0].
     #[arg(long, value_name = "S")]
     pub seed: Option<u64>,
+    /// Run the fast-marching fronts on a proxy of at most N vertices (the mesh simplified by
+    /// half-edge collapse, keypoints kept as vertices) when the mesh has more; 0 = the full
+    /// mesh, as in the paper. The default proxy is a deviation from the paper, made for speed
+    /// (2.6× fewer CPU cycles on 50–60k vertices; distances within 0.4–0.9 % on average,
+    /// repeatability within noise: BENCHMARKS.md section 2) [default: 20000]
+    #[arg(long, value_name = "N")]
+    pub geodesic_vertices: Option<usize>,
+    /// Fast marching splits obtuse corners of at least this angle, in degrees (90 = every
+    /// obtuse corner, 180 = none) [default: 90].
+    #[arg(long, value_name = "DEG")]
+    pub split_angle: Option<f64>,
 }
 
 fn parse_preset(s: &str) -> Result<Preset, String> {
@@ -64,13 +90,46 @@ fn parse_preset(s: &str) -> Result<Preset, String> {
         .map_err(|_| format!("unknown preset '{s}' (kc1, kc2 or kc3)"))
 }
 
+/// [`DetectArgs::n_reference`] of the retrieval commands (`index add`, `query`, `match`) when
+/// not given: KC-1 with N = 30 for shapes of at least 250 keypoints (25k vertices), scaled down
+/// below (see BENCHMARKS.md, *Small meshes*).
+pub const RETRIEVAL_N_REFERENCE: usize = 250;
+
 impl DetectArgs {
+    /// Whether these options give the same retrieval parameters as giving none at all.
+    pub fn is_default(&self) -> bool {
+        #[derive(clap::Parser)]
+        struct Bare {
+            #[command(flatten)]
+            detect: DetectArgs,
+        }
+        <Bare as clap::Parser>::try_parse_from(["keycomp"])
+            .is_ok_and(|b| b.detect.retrieval_params() == self.retrieval_params())
+    }
+
+    /// The parameters of the retrieval commands: [`DetectArgs::params`] with N scaled for small
+    /// shapes unless `--n-reference` says otherwise ([`RETRIEVAL_N_REFERENCE`]).
+    pub fn retrieval_params(&self) -> DetectParams {
+        let mut p = self.params();
+        if self.n_reference.is_none() {
+            p.components.cluster.n_reference = Some(RETRIEVAL_N_REFERENCE);
+        }
+        p
+    }
+
     /// The parameters: the preset, then each explicit option on top.
     pub fn params(&self) -> DetectParams {
         let mut p = DetectParams {
             harris: self.harris.params(HarrisParams::default()),
             components: self.preset.component_params(),
+            geodesic: GeodesicOptions::default(),
         };
+        if let Some(n) = self.geodesic_vertices {
+            p.geodesic.proxy_vertices = n;
+        }
+        if let Some(a) = self.split_angle {
+            p.geodesic.min_split_angle_degrees = a;
+        }
         let c = &mut p.components;
         if let Some(r) = self.r {
             c.cluster.r = r;
@@ -80,6 +139,9 @@ impl DetectArgs {
         }
         if let Some(n) = self.n {
             c.cluster.n_min = n;
+        }
+        if let Some(k) = self.n_reference {
+            c.cluster.n_reference = (k > 0).then_some(k);
         }
         if let Some(s) = self.sigma {
             c.sigma = s;
@@ -111,6 +173,18 @@ struct ComponentJson<'a> {
 #[derive(Serialize)]
 struct TimingsJson {
     read: f64,
+    /// MSER methods: normalisation and Laplace–Beltrami eigenpairs.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    spectrum: Option<f64>,
+    /// MSER methods: HKS keypoints.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    hks: Option<f64>,
+    /// MSER methods: weights, component tree and maximally stable components.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    mser: Option<f64>,
+    /// MSER methods: the covering set.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    select: Option<f64>,
     harris: f64,
     geodesic: f64,
     mds: f64,
@@ -126,7 +200,10 @@ struct Report<'a> {
     faces: usize,
     area: f64,
     preset: String,
+    method: &'static str,
     params: &'a DetectParams,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    mser_params: Option<MserParams>,
     keypoints: &'a [u32],
     components: Vec<ComponentJson<'a>>,
     timings_ms: TimingsJson,
@@ -151,8 +228,23 @@ pub fn run(args: Args) -> Result<ExitCode> {
     let loaded = read_mesh(&args.mesh)?;
     let read_ms = t0.elapsed().as_secs_f64() * 1e3;
     let mesh = &loaded.mesh;
-    let det = detect(mesh, &params)
-        .with_context(|| format!("{}: key-component detection failed", args.mesh.display()))?;
+    let mser_params = args.method.mser_output().map(|_| MserParams::default());
+    let (det, mser_timings) = match (args.method.mser_output(), &mser_params) {
+        (Some(out), Some(mp)) => {
+            let d = keycomp_mser::detect(mesh, mp)
+                .with_context(|| format!("{}: MSER detection failed", args.mesh.display()))?;
+            let det = d
+                .to_detection(mesh, out)
+                .with_context(|| format!("{}: MSER detection failed", args.mesh.display()))?;
+            (det, Some(d.timings))
+        }
+        _ => (
+            detect(mesh, &params).with_context(|| {
+                format!("{}: key-component detection failed", args.mesh.display())
+            })?,
+            None,
+        ),
+    };
     let total_ms = t0.elapsed().as_secs_f64() * 1e3;
 
     if let Some(out) = &args.ply {
@@ -166,7 +258,9 @@ pub fn run(args: Args) -> Result<ExitCode> {
             faces: mesh.num_faces(),
             area: det.area,
             preset: args.detect.preset.to_string(),
+            method: args.method.name(),
             params: &params,
+            mser_params,
             keypoints: &det.keypoints,
             components: det
                 .components
@@ -186,6 +280,10 @@ pub fn run(args: Args) -> Result<ExitCode> {
                 .collect(),
             timings_ms: TimingsJson {
                 read: read_ms,
+                spectrum: mser_timings.map(|m| m.spectrum),
+                hks: mser_timings.map(|m| m.keypoints),
+                mser: mser_timings.map(|m| m.mser),
+                select: mser_timings.map(|m| m.select),
                 harris: t.harris,
                 geodesic: t.geodesic,
                 mds: t.mds,
@@ -205,18 +303,32 @@ pub fn run(args: Args) -> Result<ExitCode> {
             det.area
         )?;
         let cp = &params.components;
-        writeln!(
-            s,
-            "preset {} (R {}, T {}, N {}, σ {}, seed {}): {} keypoints, {} in no cluster",
-            args.detect.preset,
-            cp.cluster.r,
-            cp.cluster.t,
-            cp.cluster.n_min,
-            cp.sigma,
-            cp.smacof.seed,
-            det.keypoints.len(),
-            det.unclustered.len()
-        )?;
+        if let Some(mp) = &mser_params {
+            writeln!(
+                s,
+                "method {} ({} weights, t {}·area, {} eigenpairs, Δ {}): {} HKS keypoints, {} in no component",
+                args.method,
+                mp.weighting,
+                mp.time,
+                mp.eigenpairs,
+                mp.stable.delta,
+                det.keypoints.len(),
+                det.unclustered.len()
+            )?;
+        } else {
+            writeln!(
+                s,
+                "preset {} (R {}, T {}, N {}, σ {}, seed {}): {} keypoints, {} in no cluster",
+                args.detect.preset,
+                cp.cluster.r,
+                cp.cluster.t,
+                cp.cluster.n_min,
+                cp.sigma,
+                cp.smacof.seed,
+                det.keypoints.len(),
+                det.unclustered.len()
+            )?;
+        }
         if det.disconnected_pairs > 0 {
             writeln!(
                 s,
@@ -247,11 +359,19 @@ pub fn run(args: Args) -> Result<ExitCode> {
                 }
             )?;
         }
-        writeln!(
-            s,
-            "time: read {read_ms:.0} ms, harris {:.0}, geodesic {:.0}, mds {:.0}, cluster {:.1}, extract {:.1}, total {total_ms:.0} ms",
-            t.harris, t.geodesic, t.mds, t.cluster, t.extract
-        )?;
+        if let Some(m) = mser_timings {
+            writeln!(
+                s,
+                "time: read {read_ms:.0} ms, spectrum {:.0}, hks {:.0}, mser {:.0}, select {:.1}, total {total_ms:.0} ms",
+                m.spectrum, m.keypoints, m.mser, m.select
+            )?;
+        } else {
+            writeln!(
+                s,
+                "time: read {read_ms:.0} ms, harris {:.0}, geodesic {:.0}, mds {:.0}, cluster {:.1}, extract {:.1}, total {total_ms:.0} ms",
+                t.harris, t.geodesic, t.mds, t.cluster, t.extract
+            )?;
+        }
         if let Some(out) = &args.ply {
             writeln!(s, "wrote {}", out.display())?;
         }

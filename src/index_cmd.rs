@@ -7,7 +7,7 @@ use std::process::ExitCode;
 use anyhow::{Context, Result, bail};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use keycomp_components::DetectParams;
-use keycomp_describe::DIM;
+use keycomp_describe::{DIM, DescribeParams};
 use keycomp_index::{
     ComponentRecord, ContentHash, IndexReader, IndexWriter, ShapeRecord, canonical_path,
 };
@@ -21,6 +21,89 @@ use crate::output;
 pub type Writer = IndexWriter<DIM>;
 /// The index as the CLI uses it: descriptors of the describe crate's length.
 pub type Reader = IndexReader<DIM>;
+
+/// The profile recorded in an index (`keycomp_index::IndexWriter::ensure_profile`): what makes
+/// its descriptors comparable — descriptor version, description and detection parameters.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Profile {
+    /// [`keycomp_describe::DESCRIPTOR_VERSION`].
+    pub descriptor_version: u32,
+    /// Description parameters.
+    pub describe: DescribeParams,
+    /// Detection parameters.
+    pub detect: DetectParams,
+}
+
+impl Profile {
+    /// The profile of descriptors this keycomp makes with `params`.
+    pub fn current(params: &DetectParams) -> Profile {
+        Profile {
+            descriptor_version: keycomp_describe::DESCRIPTOR_VERSION,
+            describe: DescribeParams::default(),
+            detect: params.clone(),
+        }
+    }
+
+    /// As recorded in the index (compact JSON).
+    pub fn to_text(&self) -> Result<String> {
+        Ok(serde_json::to_string(self)?)
+    }
+}
+
+/// Opens (or creates) the index at `dir` for adding shapes detected with `params`: an empty
+/// index takes their profile, an index made another way is refused with a clear error.
+pub fn open_writer(dir: &Path, params: &DetectParams) -> Result<Writer> {
+    let mut w = Writer::create_or_open(dir)?;
+    w.ensure_profile(&Profile::current(params).to_text()?)?;
+    Ok(w)
+}
+
+/// Opens the index at `dir` for querying and chooses the detection parameters of the query:
+/// the index's own when the command line gives no detection option, or the command line's
+/// when they agree with the index's; anything else (another descriptor version, other
+/// parameters, an index without a profile) is a clear error, since its descriptors would not
+/// be comparable.
+pub fn open_reader_for_query(dir: &Path, args: &DetectArgs) -> Result<(Reader, DetectParams)> {
+    let reader = Reader::open(dir)?;
+    let mine = Profile::current(&args.retrieval_params());
+    let text = reader.profile();
+    let rebuild =
+        "rebuild it (delete the directory and `keycomp index add` again) or use another --index";
+    if text.is_empty() {
+        if reader.shapes().is_empty() {
+            return Ok((reader, mine.detect));
+        }
+        bail!(
+            "index {} has no profile (written by an older keycomp): its descriptors may not be comparable with this keycomp's; {rebuild}",
+            dir.display()
+        );
+    }
+    let theirs: Profile = serde_json::from_str(text).with_context(|| {
+        format!(
+            "index {}: unreadable profile {text:?}; {rebuild}",
+            dir.display()
+        )
+    })?;
+    if theirs.descriptor_version != mine.descriptor_version || theirs.describe != mine.describe {
+        bail!(
+            "index {} holds descriptors of version {} ({:?}), this keycomp makes version {} ({:?}); {rebuild}",
+            dir.display(),
+            theirs.descriptor_version,
+            theirs.describe,
+            mine.descriptor_version,
+            mine.describe
+        );
+    }
+    if theirs.detect == mine.detect || args.is_default() {
+        return Ok((reader, theirs.detect));
+    }
+    bail!(
+        "index {} was built with other detection parameters than the query's options give: index {}, query {}; drop the options to use the index's",
+        dir.display(),
+        serde_json::to_string(&theirs.detect)?,
+        serde_json::to_string(&mine.detect)?
+    )
+}
 
 /// Shapes described before each commit to disk.
 const BATCH: usize = 32;
@@ -164,12 +247,12 @@ pub fn run(cmd: IndexCommand) -> Result<ExitCode> {
 }
 
 fn add(args: AddArgs) -> Result<ExitCode> {
-    let params = args.detect.params();
+    let params = args.detect.retrieval_params();
     let files = collect(&args.paths)?;
     if files.is_empty() {
         bail!("no mesh files (.off, .obj, .ply, .stl) found in the paths given");
     }
-    let mut writer = Writer::create_or_open(&args.dir.index)?;
+    let mut writer = open_writer(&args.dir.index, &params)?;
     let bar = progress(files.len() as u64, "indexing");
     let (mut added, mut replaced, mut unchanged) = (0usize, 0usize, 0usize);
     let mut failed: Vec<(PathBuf, String)> = Vec::new();
@@ -281,6 +364,8 @@ fn stats(args: DirArgs) -> Result<ExitCode> {
             "tombstones": st.tombstones,
             "bytes": st.bytes,
             "open_ms": reader.load_time().as_secs_f64() * 1e3,
+            "profile": serde_json::from_str::<serde_json::Value>(reader.profile())
+                .unwrap_or_else(|_| serde_json::Value::String(reader.profile().to_string())),
         }))?;
     } else {
         output::print_text(&format!(
@@ -294,6 +379,14 @@ fn stats(args: DirArgs) -> Result<ExitCode> {
             st.segments,
             st.bytes,
             reader.load_time().as_secs_f64() * 1e3
+        ))?;
+        output::print_text(&format!(
+            "profile: {}\n",
+            if reader.profile().is_empty() {
+                "none (older keycomp: rebuild before querying)"
+            } else {
+                reader.profile()
+            }
         ))?;
     }
     Ok(ExitCode::SUCCESS)

@@ -6,6 +6,7 @@
 //! 1 no result, 2 error (bad input, bad arguments). A closed stdout pipe exits 0.
 
 mod bench;
+mod bench_retrieval;
 mod colors;
 mod demo;
 mod detect;
@@ -16,6 +17,7 @@ mod output;
 mod query;
 mod render_cmd;
 mod repeatability;
+mod report;
 mod transform;
 
 use std::process::ExitCode;
@@ -58,7 +60,9 @@ enum Command {
     /// Benchmarks that produce the tables in BENCHMARKS.md.
     #[command(subcommand)]
     Bench(bench::BenchCommand),
-    /// Run the built-in demo on shapes generated in code (no files needed).
+    /// The built-in demo: generate a collection of shapes in code, index it, query it with
+    /// held-out shapes and fragments, print a table and write an HTML report (no files needed).
+    #[command(after_help = demo::EXAMPLES)]
     Demo(demo::Args),
 }
 

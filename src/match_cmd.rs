@@ -122,7 +122,7 @@ fn pair_colors(mesh: &Mesh, det: &Detection, pairs: &[(usize, usize)]) -> Vec<[u
 }
 
 pub fn run(args: Args) -> Result<ExitCode> {
-    let params = args.detect.params();
+    let params = args.detect.retrieval_params();
     let (a, b) = rayon::join(|| analyse(&args.a, &params), || analyse(&args.b, &params));
     let (a, b) = (a?, b?);
     let t = Instant::now();

@@ -11,13 +11,14 @@ use keycomp_retrieval::{MatchParams, rank};
 use serde::Serialize;
 
 use crate::detect::DetectArgs;
-use crate::index_cmd::Reader;
+use crate::index_cmd::open_reader_for_query;
 use crate::match_cmd::analyse;
-use crate::output;
+use crate::{output, report};
 
 pub const EXAMPLES: &str = "Examples:
   keycomp index add ../shared/data/tosca && keycomp query ../shared/data/tosca/cat3.off
-  keycomp query scan-of-a-leg.ply -k 5 --json";
+  keycomp query scan-of-a-leg.ply -k 5 --json
+  keycomp query cat3-half.off --report cat3-report   # then open cat3-report/index.html";
 
 /// Arguments of `keycomp query`.
 #[derive(Debug, clap::Args)]
@@ -35,6 +36,11 @@ pub struct Args {
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
+    /// Also write an HTML report with pictures to this directory (DIR/index.html): the query
+    /// with its key-components coloured, each result with its matched components in the same
+    /// colours.
+    #[arg(long, value_name = "DIR")]
+    pub report: Option<PathBuf>,
 }
 
 #[derive(Serialize)]
@@ -70,19 +76,38 @@ struct Report {
 
 pub fn run(args: Args) -> Result<ExitCode> {
     let t0 = Instant::now();
-    let params = args.detect.params();
-    let q = analyse(&args.mesh, &params)?;
-    let describe_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let (reader, params) = open_reader_for_query(&args.index, &args.detect)?;
+    let open_ms = t0.elapsed().as_secs_f64() * 1e3;
     let t = Instant::now();
-    let reader = Reader::open(&args.index)?;
-    let open_ms = t.elapsed().as_secs_f64() * 1e3;
+    let q = analyse(&args.mesh, &params)?;
+    let describe_ms = t.elapsed().as_secs_f64() * 1e3;
     let t = Instant::now();
     let (descs, layout) = q.view();
     let ranked = rank(&reader, &descs, layout, args.k, &MatchParams::default())?;
     let search_ms = t.elapsed().as_secs_f64() * 1e3;
     let total_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let report = match &args.report {
+        Some(dir) => {
+            let entry = report::QueryEntry {
+                title: args.mesh.display().to_string(),
+                note: None,
+                query: &q,
+                results: &ranked,
+            };
+            Some(report::write_report(
+                dir,
+                &reader,
+                &[entry],
+                &report::ReportParams::default(),
+            )?)
+        }
+        None => None,
+    };
 
     if args.json {
+        if let Some(page) = &report {
+            eprintln!("report: {}", page.display()); // stdout is the JSON
+        }
         output::print_json(&Report {
             query: args.mesh.display().to_string(),
             components: descs.len(),
@@ -143,6 +168,9 @@ pub fn run(args: Args) -> Result<ExitCode> {
             s,
             "time: describe query {describe_ms:.0} ms, open index {open_ms:.1} ms, search {search_ms:.1} ms"
         )?;
+        if let Some(page) = &report {
+            writeln!(s, "report: {}", page.display())?;
+        }
         output::print_text(&s)?;
     }
     Ok(if ranked.is_empty() {

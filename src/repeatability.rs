@@ -12,11 +12,12 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use keycomp_bench::Kind;
 use keycomp_bench::cache::EmbeddingCache;
 use keycomp_bench::experiment::{
-    Budget, Config, ISOMETRY, PresetSpec, Progress, Report, RunStats, discover, run,
+    Budget, Config, ISOMETRY, Method, PresetSpec, Progress, Report, RunStats, discover, run,
 };
 use keycomp_bench::svg::{Curve, repeatability_svg};
-use keycomp_components::{Preset, SmacofParams};
+use keycomp_components::{GeodesicOptions, Preset, SmacofParams};
 use keycomp_harris::HarrisParams;
+use keycomp_mser::MserParams;
 use serde::Serialize;
 
 use crate::keypoints::HarrisArgs;
@@ -26,6 +27,7 @@ pub const EXAMPLES: &str = "Examples:
   keycomp bench repeatability                       # ../shared/data, KC-1..3, everything
   keycomp bench repeatability --preset kc1 --kinds noise,sampling --strengths 1,5
   keycomp bench repeatability --tessellation-independent --out bench-out/repeatability-ti
+  keycomp bench repeatability --method mser,mser-kc --out bench-out/repeatability-mser
   keycomp bench repeatability --data my-null-shapes/ --count 200 --json > results.json
 
 Writes OUT/results.json (tables, curves, every component's best overlap), OUT/tables.md,
@@ -44,6 +46,17 @@ pub struct Args {
     /// Presets to evaluate: kc1, kc2, kc3 or all.
     #[arg(long, default_value = "all", value_parser = parse_presets)]
     pub preset: PresetChoice,
+    /// Methods, comma-separated: kc (key-components, one table per --preset), mser (every
+    /// diffusion-geometric maximally stable component, the paper's Table 5), mser-kc (MSER
+    /// key-components, Table 6). The MSER methods compute 60 Laplace-Beltrami eigenpairs of
+    /// each full mesh and share one cached detection.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "kc",
+        value_name = "METHODS"
+    )]
+    pub method: Vec<Method>,
     #[command(flatten)]
     pub harris: HarrisArgs,
     /// Tessellation-independent keypoint budget: the null shape and every shape made from it
@@ -76,6 +89,14 @@ pub struct Args {
     /// Seed of SMACOF's random starts.
     #[arg(long, default_value_t = 0, value_name = "S")]
     pub smacof_seed: u64,
+    /// Fast-marching fronts on a proxy of at most N vertices; 0 = the full mesh (as `keycomp
+    /// detect --geodesic-vertices`) [default: the detection default].
+    #[arg(long, value_name = "N")]
+    pub geodesic_vertices: Option<usize>,
+    /// Split obtuse corners of at least this angle in fast marching (as `keycomp detect
+    /// --split-angle`) [default: the detection default].
+    #[arg(long, value_name = "DEG")]
+    pub split_angle: Option<f64>,
     /// Output folder.
     #[arg(long, default_value = "bench-out/repeatability", value_name = "DIR")]
     pub out: PathBuf,
@@ -135,10 +156,14 @@ impl Args {
     fn config(&self, cache: Option<EmbeddingCache>) -> Config {
         let modified =
             self.r.is_some() || self.t.is_some() || self.n.is_some() || self.sigma.is_some();
-        let presets = self
+        let mut methods = self.method.clone();
+        methods.dedup();
+        let kc = methods.contains(&Method::Kc);
+        let mut presets: Vec<PresetSpec> = self
             .preset
             .0
             .iter()
+            .filter(|_| kc)
             .map(|p| {
                 let c = p.component_params();
                 let mut cluster = c.cluster;
@@ -153,11 +178,17 @@ impl Args {
                 }
                 PresetSpec {
                     name: format!("{p}{}", if modified { "*" } else { "" }),
+                    method: Method::Kc,
                     cluster,
                     sigma: self.sigma.unwrap_or(c.sigma),
                 }
             })
             .collect();
+        for m in [Method::Mser, Method::MserKc] {
+            if methods.contains(&m) {
+                presets.extend(PresetSpec::mser(m));
+            }
+        }
         let harris = self.harris.params(HarrisParams::default());
         let budget = if self.tessellation_independent {
             Budget::NullCalibrated(0.01)
@@ -192,6 +223,17 @@ impl Args {
                 seed: self.smacof_seed,
                 ..SmacofParams::default()
             },
+            geodesic: {
+                let mut g = GeodesicOptions::default();
+                if let Some(n) = self.geodesic_vertices {
+                    g.proxy_vertices = n;
+                }
+                if let Some(a) = self.split_angle {
+                    g.min_split_angle_degrees = a;
+                }
+                g
+            },
+            mser: MserParams::default(),
             kinds,
             isometry,
             strengths,
@@ -278,6 +320,10 @@ pub fn run_cmd(args: Args) -> Result<ExitCode> {
         .harris
         .validate()
         .context("invalid keypoint options")?;
+    config
+        .geodesic
+        .validate()
+        .context("invalid geodesic options")?;
     for p in &config.presets {
         p.cluster
             .validate()
@@ -354,10 +400,15 @@ fn write_outputs(
                 values: c.values.clone(),
             })
             .collect();
-        let title = format!(
-            "{}: repeatability vs overlap (R {}, T {}, N {})",
-            pr.preset.name, pr.preset.cluster.r, pr.preset.cluster.t, pr.preset.cluster.n_min
-        );
+        let title = match pr.preset.method {
+            Method::Kc => format!(
+                "{}: repeatability vs overlap (R {}, T {}, N {})",
+                pr.preset.name, pr.preset.cluster.r, pr.preset.cluster.t, pr.preset.cluster.n_min
+            ),
+            Method::Mser | Method::MserKc => {
+                format!("{}: repeatability vs overlap", pr.preset.name)
+            }
+        };
         let svg = repeatability_svg(&title, &report.thresholds, &curves);
         write_atomic(
             &out.join(format!("repeatability-{}.svg", file_tag(&pr.preset.name))),

@@ -17,15 +17,6 @@ fn protrusion_off(dir: &Path) -> PathBuf {
     path
 }
 
-#[test]
-fn demo_runs_with_no_files_and_finds_the_protrusions() {
-    let o = keycomp(&["demo"]);
-    assert!(o.status.success(), "stderr: {}", stderr(&o));
-    let s = stdout(&o);
-    assert!(s.contains("KC-1"), "{s}");
-    assert!(s.contains("6 of 6 protrusions found"), "{s}");
-}
-
 /// Writes the demo's textured protrusion shape as OFF in `dir` and returns its path.
 fn textured_off(dir: &Path) -> PathBuf {
     let path = dir.join("textured.off");
@@ -66,6 +57,8 @@ fn detect_json_has_the_documented_shape_and_is_deterministic() {
     }
     assert_eq!(v["preset"], "KC-1");
     assert_eq!(v["params"]["components"]["smacof"]["seed"], 7);
+    assert!(v["params"]["geodesic"]["proxy_vertices"].is_u64());
+    assert!(v["params"]["geodesic"]["min_split_angle_degrees"].is_number());
     let n = v["vertices"].as_u64().expect("vertices");
     let comps = v["components"].as_array().expect("components");
     assert_eq!(comps.len(), 6, "one key-component per protrusion");
@@ -127,6 +120,8 @@ fn detect_rejects_bad_parameters_with_exit_2() {
         vec!["detect", p, "--r", "0.5", "--t", "0.1"],
         vec!["detect", p, "--sigma", "-1"],
         vec!["detect", p, "--fraction", "0"],
+        vec!["detect", p, "--geodesic-vertices", "5"],
+        vec!["detect", p, "--split-angle", "60"],
     ] {
         let o = keycomp(&args);
         assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));

@@ -197,3 +197,68 @@ fn index_commands_on_synthetic_shapes() {
     let o = keycomp(&["index", "verify", "--index", s(&index)]);
     assert_eq!(o.status.code(), Some(2));
 }
+
+/// The index records how its descriptors were made: a query without detection options uses
+/// the index's parameters, contradicting options and adding with other parameters are refused
+/// (exit 2, index unchanged), and a format-1 index (no profile) is refused for queries.
+#[test]
+fn index_profile_keeps_descriptors_comparable() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let index = dir.path().join("idx");
+    let shape = dir.path().join("textured.off");
+    write_off(&synth::textured_protrusion_sphere(6), &shape).expect("w");
+    let other = dir.path().join("torus.off");
+    write_off(&synth::torus(2.0, 0.5, 120, 60), &other).expect("w");
+
+    let o = keycomp(&[
+        "index",
+        "add",
+        s(&shape),
+        "--index",
+        s(&index),
+        "--preset",
+        "kc2",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let query = |extra: &[&str]| {
+        let mut a = vec!["query", s(&shape), "--index", s(&index), "--json"];
+        a.extend_from_slice(extra);
+        keycomp(&a)
+    };
+    // no options: the index's KC-2 parameters, so the shape finds itself with score 1
+    let plain = query(&[]);
+    assert!(plain.status.success(), "{}", stderr(&plain));
+    let v: Value = serde_json::from_slice(&plain.stdout).expect("json");
+    assert!((v["results"][0]["score"].as_f64().expect("score") - 1.0).abs() < 1e-6);
+    // the same parameters spelled out agree
+    let same = query(&["--preset", "kc2"]);
+    assert!(same.status.success(), "{}", stderr(&same));
+    let w: Value = serde_json::from_slice(&same.stdout).expect("json");
+    assert_eq!(v["results"], w["results"]);
+    // other parameters are refused
+    let o = query(&["--preset", "kc3"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("other detection parameters"),
+        "{}",
+        stderr(&o)
+    );
+    // adding with other parameters is refused and changes nothing
+    let manifest = index.join("MANIFEST");
+    let before = std::fs::read(&manifest).expect("manifest");
+    let o = keycomp(&["index", "add", s(&other), "--index", s(&index)]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("made another way"), "{}", stderr(&o));
+    assert_eq!(std::fs::read(&manifest).expect("manifest"), before);
+
+    // an index with shapes but no profile (as every format-1 index) is refused for queries
+    let bare = dir.path().join("bare");
+    let mut w = keycomp_index::IndexWriter::<{ keycomp_describe::DIM }>::create_or_open(&bare)
+        .expect("writer");
+    w.add_batch(keycomp_index::synthetic::records(3, 0..2))
+        .expect("add");
+    drop(w);
+    let o = keycomp(&["query", s(&shape), "--index", s(&bare)]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("has no profile"), "{}", stderr(&o));
+}

@@ -28,6 +28,16 @@
 //! overlap with a component of X of the same preset ([`best_overlaps`]). Shapes run in parallel
 //! (rayon, in the caller's thread pool) when [`Config::parallel_shapes`] is set.
 //!
+//! **Methods** ([`Method`]). Each [`PresetSpec`] names a detection method: key-components
+//! (`kc`, the presets KC-1..3, stages as above) or the paper's comparison method of Section 4.4
+//! (`mser`: every diffusion-geometric maximally stable component, Table 5; `mser-kc`: the MSER
+//! key-components, Table 6; [`PresetSpec::mser`]). Both MSER presets read their components off
+//! one `keycomp_mser::detect` per shape with [`Config::mser`] (Laplace–Beltrami spectrum of
+//! the full mesh, no simplification), cached beside the stage-1 entries
+//! ([`EmbeddingCache::load_mser`], keyed by content, MSER parameters and
+//! [`crate::cache::MSER_VERSION`]). The keypoint budget does not apply to them (HKS keypoints
+//! are the 2-ring maxima, however many).
+//!
 //! **Keypoint budget** ([`Budget`]). The paper's presets take 1 % of *each shape's own* vertex
 //! count (`Budget::PerShape(Selection::Fraction(0.01))`), so a shape decimated to 12 % of its
 //! vertices gets 12 % of the keypoints. `Budget::NullCalibrated(0.01)` gives every shape of a
@@ -52,7 +62,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
-use keycomp_components::{ClusterParams, SmacofParams};
+use keycomp_components::{ClusterParams, GeodesicOptions, SmacofParams};
 use keycomp_harris::{HarrisParams, Selection};
 use keycomp_mesh::geometry::vertex_areas;
 use keycomp_mesh::{Format, Mesh, Topology, VertexId, read_mesh};
@@ -60,7 +70,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::BenchError;
-use crate::cache::{EmbeddingCache, Lookup, cache_key};
+use crate::cache::{EmbeddingCache, Lookup, MserEntry, cache_key, mser_cache_key};
 use crate::evaluate::{
     CumulativeTable, Pullback, Record, TableRow, best_overlaps, mean_overlap_table,
     repeatability_curve, repeatability_table,
@@ -68,6 +78,7 @@ use crate::evaluate::{
 use crate::paper::{PaperTable, paper_table, row_label, row_order};
 use crate::staged::{Embedded, Extractor, embed};
 use crate::transform::{Kind, MAX_STRENGTH, transform};
+use keycomp_mser::{MserParams, covering_set, detect as detect_mser};
 
 /// Format tag of the JSON [`Report`].
 pub const REPORT_FORMAT: &str = "keycomp-repeatability v1";
@@ -325,14 +336,84 @@ fn referenced(mesh: &Mesh) -> usize {
 /// A named set of clustering parameters (one of the paper's presets, possibly modified).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PresetSpec {
-    /// Name shown in tables (`KC-1`, …); the paper's table of that name is printed beside ours.
-    /// A trailing `*` marks a preset modified by options (the paper's table of the unmodified
-    /// preset is still shown).
+    /// Name shown in tables (`KC-1`, …, `MSER`, `MSER-KC`); the paper's table of that name is
+    /// printed beside ours. A trailing `*` marks a preset modified by options (the paper's table
+    /// of the unmodified preset is still shown).
     pub name: String,
+    /// The detection method; `cluster` and `sigma` are used by [`Method::Kc`] only.
+    pub method: Method,
     /// R, T, N, Iter.
     pub cluster: ClusterParams,
     /// Region-growing factor σ.
     pub sigma: f64,
+}
+
+/// The detection method evaluated by a preset (Sipiran & Bustos 2013, Sections 3 and 4.4).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Method {
+    /// Key-components (Harris 3D, geodesics, SMACOF, clustering, region growing).
+    Kc,
+    /// Every diffusion-geometric maximally stable component (the paper's Table 5).
+    Mser,
+    /// MSER key-components: the MSER components covering the HKS keypoints (Table 6).
+    MserKc,
+}
+
+impl Method {
+    /// `kc`, `mser` or `mser-kc`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Kc => "kc",
+            Method::Mser => "mser",
+            Method::MserKc => "mser-kc",
+        }
+    }
+
+    /// The MSER output of an MSER method (`None` for key-components).
+    pub fn mser_output(self) -> Option<keycomp_mser::Output> {
+        match self {
+            Method::Kc => None,
+            Method::Mser => Some(keycomp_mser::Output::All),
+            Method::MserKc => Some(keycomp_mser::Output::KeyComponents),
+        }
+    }
+}
+
+impl std::fmt::Display for Method {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for Method {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "kc" => Ok(Method::Kc),
+            "mser" => Ok(Method::Mser),
+            "mser-kc" | "mserkc" => Ok(Method::MserKc),
+            _ => Err(format!("unknown method '{s}' (kc, mser or mser-kc)")),
+        }
+    }
+}
+
+impl PresetSpec {
+    /// The preset of an MSER method, named as the paper's table (`MSER`, `MSER-KC`); `None`
+    /// for [`Method::Kc`], whose presets are KC-1..3.
+    pub fn mser(method: Method) -> Option<PresetSpec> {
+        let name = match method {
+            Method::Kc => return None,
+            Method::Mser => "MSER",
+            Method::MserKc => "MSER-KC",
+        };
+        Some(PresetSpec {
+            name: name.to_owned(),
+            method,
+            cluster: ClusterParams::default(),
+            sigma: 0.0,
+        })
+    }
 }
 
 /// What to run.
@@ -346,6 +427,11 @@ pub struct Config {
     pub budget: Budget,
     /// SMACOF parameters (shared by all presets).
     pub smacof: SmacofParams,
+    /// Parameters of the MSER methods (shared by `MSER` and `MSER-KC`; part of their cache
+    /// key).
+    pub mser: MserParams,
+    /// Geodesic options of detection (full mesh or proxy; part of the cache key).
+    pub geodesic: GeodesicOptions,
     /// Generated transformations to run.
     pub kinds: Vec<Kind>,
     /// Whether to run the real-pose isometry transformations.
@@ -406,6 +492,24 @@ struct LoadedNull {
     topo: Topology,
     areas: Vec<f64>,
     referenced: usize,
+}
+
+impl CacheUse {
+    /// The less favourable of two uses (a shape with two cached stages is a hit only if both
+    /// were): Corrupt, then Miss, then Off, then Hit.
+    fn worse(self, other: CacheUse) -> CacheUse {
+        let rank = |c: CacheUse| match c {
+            CacheUse::Hit => 0,
+            CacheUse::Off => 1,
+            CacheUse::Miss => 2,
+            CacheUse::Corrupt => 3,
+        };
+        if rank(other) > rank(self) {
+            other
+        } else {
+            self
+        }
+    }
 }
 
 /// How a shape's stage-1 result was obtained.
@@ -528,6 +632,10 @@ pub struct Report {
     pub harris: HarrisParams,
     /// SMACOF parameters.
     pub smacof: SmacofParams,
+    /// Geodesic options of detection (full mesh or proxy).
+    pub geodesic: GeodesicOptions,
+    /// Parameters of the MSER methods (used by presets `MSER` and `MSER-KC` only).
+    pub mser: MserParams,
     /// Overlap thresholds of the curves.
     pub thresholds: Vec<f64>,
     /// Null shapes and their poses.
@@ -577,12 +685,14 @@ impl Config {
             selection: self.selection_for(mesh, null.referenced),
             ..self.harris
         };
-        let compute =
-            || embed(mesh, &harris, &self.smacof).map_err(|e| format!("detection failed: {e}"));
+        let compute = || {
+            embed(mesh, &harris, &self.smacof, &self.geodesic)
+                .map_err(|e| format!("detection failed: {e}"))
+        };
         let Some(cache) = &self.cache else {
             return Ok((compute()?, CacheUse::Off, None));
         };
-        let key = cache_key(mesh, &harris, &self.smacof);
+        let key = cache_key(mesh, &harris, &self.smacof, &self.geodesic);
         let state = match cache.load(key, mesh.num_vertices()) {
             Lookup::Hit(e) => return Ok((e, CacheUse::Hit, None)),
             Lookup::Miss => CacheUse::Miss,
@@ -590,6 +700,31 @@ impl Config {
         };
         let e = compute()?;
         let err = cache.store(key, &e).err().map(|e| e.to_string());
+        Ok((e, state, err))
+    }
+
+    /// The MSER detection of `mesh` (HKS keypoints and maximally stable components), from the
+    /// cache when present.
+    fn mser_stage(&self, mesh: &Mesh) -> Result<(MserEntry, CacheUse, Option<String>), String> {
+        let compute = || {
+            detect_mser(mesh, &self.mser)
+                .map(|d| MserEntry {
+                    keypoints: d.keypoints,
+                    components: d.components,
+                })
+                .map_err(|e| format!("MSER detection failed: {e}"))
+        };
+        let Some(cache) = &self.cache else {
+            return Ok((compute()?, CacheUse::Off, None));
+        };
+        let key = mser_cache_key(mesh, &self.mser);
+        let state = match cache.load_mser(key, mesh.num_vertices()) {
+            Lookup::Hit(e) => return Ok((e, CacheUse::Hit, None)),
+            Lookup::Miss => CacheUse::Miss,
+            Lookup::Corrupt => CacheUse::Corrupt,
+        };
+        let e = compute()?;
+        let err = cache.store_mser(key, &e).err().map(|e| e.to_string());
         Ok((e, state, err))
     }
 
@@ -617,16 +752,49 @@ impl Config {
                 (Cow::Owned(m), Some(identity))
             }
         };
-        let (embedded, cache, cache_error) = self.stage1(&mesh, null)?;
-        let extractor = Extractor::new(&mesh);
+        let wants = |kc: bool| self.presets.iter().any(|p| (p.method == Method::Kc) == kc);
+        let (embedded, mut cache, mut cache_error) = if wants(true) {
+            let (e, c, err) = self.stage1(&mesh, null)?;
+            (Some(e), c, err)
+        } else {
+            (None, CacheUse::Hit, None)
+        };
+        let mser = if wants(false) {
+            let (m, c, err) = self.mser_stage(&mesh)?;
+            cache = cache.worse(c);
+            cache_error = cache_error.or(err);
+            Some(m)
+        } else {
+            None
+        };
+        let extractor = embedded.as_ref().map(|_| Extractor::new(&mesh));
+        let vertex_area = mser.as_ref().map(|_| vertex_areas(&mesh));
         let mut components = Vec::with_capacity(self.presets.len());
         for p in &self.presets {
-            components.push(
-                extractor
-                    .components(&embedded, &p.cluster, p.sigma)
+            let comps = match (p.method, &embedded, &extractor, &mser, &vertex_area) {
+                (Method::Kc, Some(e), Some(x), _, _) => x
+                    .components(e, &p.cluster, p.sigma)
                     .map_err(|e| format!("{}: component extraction failed: {e}", p.name))?,
-            );
+                (Method::Mser, _, _, Some(m), _) => m.components.clone(),
+                (Method::MserKc, _, _, Some(m), Some(va)) => {
+                    let areas: Vec<f64> = m
+                        .components
+                        .iter()
+                        .map(|c| c.iter().map(|&v| va[v as usize]).sum())
+                        .collect();
+                    let (chosen, _) = covering_set(&m.components, &areas, &m.keypoints)
+                        .map_err(|e| format!("{}: {e}", p.name))?;
+                    chosen.iter().map(|&i| m.components[i].clone()).collect()
+                }
+                _ => return Err(format!("{}: internal error: stage missing", p.name)),
+            };
+            components.push(comps);
         }
+        let keypoints = match (&embedded, &mser) {
+            (Some(e), _) => e.keypoints.len(),
+            (None, Some(m)) => m.keypoints.len(),
+            (None, None) => 0,
+        };
         if let Some(map) = map {
             let pullback =
                 Pullback::new(&null.mesh, &null.topo, &map).map_err(|e| e.to_string())?;
@@ -639,7 +807,7 @@ impl Config {
         Ok(Outcome {
             vertices: mesh.num_vertices(),
             faces: mesh.num_faces(),
-            keypoints: embedded.keypoints.len(),
+            keypoints,
             cache,
             cache_error,
             seconds: t0.elapsed().as_secs_f64(),
@@ -817,6 +985,8 @@ pub fn run(
         budget_rule: config.budget,
         harris: config.harris,
         smacof: config.smacof.clone(),
+        geodesic: config.geodesic,
+        mser: config.mser,
         thresholds,
         nulls: nulls.to_vec(),
         presets,
@@ -929,6 +1099,33 @@ fn cell(v: Option<f64>) -> String {
 }
 
 impl Report {
+    /// A preset's parameters in words: `R 0.15, T 0.3, N 30, σ 1.5` for key-components, the
+    /// weights, times, eigenpairs and stability parameters for the MSER methods.
+    pub fn preset_parameters(&self, p: &PresetSpec) -> String {
+        match p.method {
+            Method::Kc => format!(
+                "R {}, T {}, N {}, σ {}",
+                p.cluster.r, p.cluster.t, p.cluster.n_min, p.sigma
+            ),
+            Method::Mser | Method::MserKc => {
+                let m = &self.mser;
+                format!(
+                    "{} weights, t {}·area, {} eigenpairs, Δ {}, area {}–{}, max variation {}, \
+                     min diversity {}; HKS keypoints at t {}·area",
+                    m.weighting,
+                    m.time,
+                    m.eigenpairs,
+                    m.stable.delta,
+                    m.stable.min_area,
+                    m.stable.max_area,
+                    m.stable.max_variation,
+                    m.stable.min_diversity,
+                    m.keypoint_time
+                )
+            }
+        }
+    }
+
     /// The tables as markdown: per preset, the paper's Table 1 layout with "ours / paper" in
     /// each cell, repeatability at overlap 0.8, and the null shapes' detections; then the
     /// skipped shapes.
@@ -949,16 +1146,12 @@ impl Report {
             self.seed
         );
         for (p, pr) in self.presets.iter().enumerate() {
-            let c = &pr.preset.cluster;
             let source = pr.paper.map_or("", |t| t.source);
             let _ = writeln!(
                 s,
-                "### {} (R {}, T {}, N {}, σ {}): average overlap{}\n",
+                "### {} ({}): average overlap{}\n",
                 pr.preset.name,
-                c.r,
-                c.t,
-                c.n_min,
-                pr.preset.sigma,
+                self.preset_parameters(&pr.preset),
                 if pr.paper.is_some() {
                     format!(", ours / paper ({source})")
                 } else {
@@ -1073,6 +1266,7 @@ mod tests {
                 let c = p.component_params();
                 PresetSpec {
                     name: format!("{p}*"),
+                    method: Method::Kc,
                     cluster: ClusterParams {
                         n_min: 8,
                         ..c.cluster
@@ -1089,6 +1283,8 @@ mod tests {
             harris: HarrisParams::default(),
             budget: Budget::PerShape(Selection::Fraction(0.01)),
             smacof: SmacofParams::default(),
+            geodesic: GeodesicOptions::default(),
+            mser: MserParams::default(),
             kinds,
             isometry: true,
             strengths,
@@ -1204,8 +1400,8 @@ mod tests {
         assert!(matches!(resolved.selection, Selection::Count(_)));
         let s = SmacofParams::default();
         assert_eq!(
-            embed(&mesh, &f, &s).unwrap(),
-            embed(&mesh, &resolved, &s).unwrap()
+            embed(&mesh, &f, &s, &cfg.geodesic).unwrap(),
+            embed(&mesh, &resolved, &s, &cfg.geodesic).unwrap()
         );
         let calibrated = Config {
             budget: Budget::NullCalibrated(0.01),
@@ -1268,6 +1464,49 @@ mod tests {
         let md = report.markdown();
         assert!(md.contains("| Scale | 1.00 / 0.95"), "{md}");
         assert!(md.contains("| Average |"), "{md}");
+    }
+
+    #[test]
+    fn mser_methods_run_beside_key_components_and_are_cached() {
+        let dir = tempfile::tempdir().unwrap();
+        let data = dir.path().join("data");
+        std::fs::create_dir_all(&data).unwrap();
+        write_off(&synth::protrusion_sphere(4, 0.8, 0.25), &data.join("p.off")).unwrap();
+        let nulls = discover(&data).unwrap();
+        let cache = EmbeddingCache::new(dir.path().join("cache"));
+        let mut cfg = config(vec![Kind::Scale], vec![1], Some(cache));
+        cfg.presets = [Method::Mser, Method::MserKc]
+            .into_iter()
+            .filter_map(PresetSpec::mser)
+            .collect();
+        let (report, stats) = run(&cfg, &nulls, &|_| {}).unwrap();
+        assert!(report.skipped.is_empty(), "{:?}", report.skipped);
+        assert_eq!(stats.computed, 2);
+        let null = &report.shapes[0];
+        assert_eq!(null.kind, "null");
+        // six protrusions: six HKS keypoints, at least six MSER components, and the covering
+        // set is one component per protrusion
+        assert_eq!(null.keypoints, 6);
+        assert!(null.presets[0].components >= 6, "{null:?}");
+        assert_eq!(null.presets[1].components, 6, "{null:?}");
+        for pr in &report.presets {
+            let v = pr.mean_overlap.rows[0].values[0].unwrap();
+            assert!(v > 0.99, "{}: scale overlap {v}", pr.preset.name);
+        }
+        assert_eq!(
+            report.presets[0].paper.unwrap().source,
+            "Sipiran & Bustos 2013, Table 5"
+        );
+        assert_eq!(
+            report.presets[1].paper.unwrap().source,
+            "Sipiran & Bustos 2013, Table 6"
+        );
+        let md = report.markdown();
+        assert!(md.contains("### MSER-KC (edge weights"), "{md}");
+        // second run from the cache: same report
+        let (again, stats) = run(&cfg, &nulls, &|_| {}).unwrap();
+        assert_eq!(stats.cache_hits, 2);
+        assert_eq!(again, report);
     }
 
     #[test]

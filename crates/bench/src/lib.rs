@@ -12,6 +12,9 @@
 //! its Tables 1–3 and Figs. 7–9 ([`svg`]) next to the published numbers ([`paper`]); detection
 //! is split in a clustering-independent stage and a per-preset stage ([`staged`]) whose first
 //! half is cached on disk by content ([`cache`]).
+//!
+//! [`retrieval`] measures retrieval quality (Princeton Shape Benchmark measures, the D2
+//! baseline, partial queries cut from a collection) for `keycomp bench retrieval`.
 
 pub mod cache;
 mod error;
@@ -19,6 +22,7 @@ pub mod evaluate;
 pub mod experiment;
 mod graph;
 pub mod paper;
+pub mod retrieval;
 pub mod staged;
 pub mod svg;
 pub mod transform;

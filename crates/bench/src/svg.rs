@@ -32,6 +32,18 @@ fn escape(s: &str) -> String {
 /// Renders the plot. `thresholds` are the x values shared by every curve (values outside
 /// [0, 1] and non-finite points are clamped or skipped); `title` goes on top.
 pub fn repeatability_svg(title: &str, thresholds: &[f64], curves: &[Curve]) -> String {
+    line_plot_svg(title, "Overlap", "Repeatability", thresholds, curves)
+}
+
+/// The same kind of plot with other axis labels: x and y both in [0, 1] (values outside are
+/// clamped, non-finite points skipped), one polyline with markers per curve, a legend.
+pub fn line_plot_svg(
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    thresholds: &[f64],
+    curves: &[Curve],
+) -> String {
     const W: f64 = 760.0;
     const H: f64 = 480.0;
     const LEFT: f64 = 70.0;
@@ -92,15 +104,17 @@ pub fn repeatability_svg(title: &str, thresholds: &[f64], curves: &[Curve]) -> S
     );
     let _ = writeln!(
         s,
-        r#"<text x="{:.1}" y="{:.1}" text-anchor="middle">Overlap</text>"#,
+        r#"<text x="{:.1}" y="{:.1}" text-anchor="middle">{}</text>"#,
         LEFT + pw / 2.0,
-        H - 15.0
+        H - 15.0,
+        escape(x_label)
     );
     let _ = writeln!(
         s,
-        r#"<text x="18" y="{:.1}" text-anchor="middle" transform="rotate(-90 18 {:.1})">Repeatability</text>"#,
+        r#"<text x="18" y="{:.1}" text-anchor="middle" transform="rotate(-90 18 {:.1})">{}</text>"#,
         TOP + ph / 2.0,
-        TOP + ph / 2.0
+        TOP + ph / 2.0,
+        escape(y_label)
     );
     // curves
     for (i, c) in curves.iter().enumerate() {

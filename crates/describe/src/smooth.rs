@@ -66,7 +66,10 @@ mod tests {
         let (mean1, dev1) = spread(&smoothed);
         assert!(dev1 < 0.6 * dev0, "noise {dev0} -> {dev1}");
         // Taubin smoothing does not shrink like plain Laplacian smoothing
-        assert!((mean1 - mean0).abs() < 0.01 * mean0, "radius {mean0} -> {mean1}");
+        assert!(
+            (mean1 - mean0).abs() < 0.01 * mean0,
+            "radius {mean0} -> {mean1}"
+        );
     }
 
     #[test]
