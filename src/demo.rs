@@ -9,17 +9,14 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use keycomp_components::DetectParams;
-use keycomp_describe::DIM;
-use keycomp_index::{ContentHash, ShapeRecord, canonical_path};
 use keycomp_mesh::{Mesh, Point3, Topology, Vector3, cut, geometry};
 use keycomp_retrieval::{MatchParams, Ranked, rank};
 use keycomp_shapes::{Class, GenerateParams, Shape};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use rayon::prelude::*;
 
 use crate::detect::DetectArgs;
-use crate::index_cmd::{open_reader_for_query, open_writer, progress, record_of};
+use crate::index_cmd::{open_reader_for_query, open_writer, progress, records_of_new};
 use crate::match_cmd::{Analysed, analyse};
 use crate::{output, report};
 
@@ -149,24 +146,8 @@ fn ball_cut(mesh: &Mesh, fraction: f64, rng: &mut ChaCha8Rng) -> Mesh {
 /// with the same content). Returns (added or replaced, unchanged).
 fn index_files(index: &Path, files: &[PathBuf], params: &DetectParams) -> Result<(usize, usize)> {
     let mut writer = open_writer(index, params)?;
-    let known: Vec<Option<ContentHash>> = files
-        .iter()
-        .map(|p| writer.lookup(&canonical_path(p)).map(|(_, h)| h))
-        .collect();
     let bar = progress(files.len() as u64, "indexing");
-    let results: Vec<Option<Result<ShapeRecord<DIM>>>> = files
-        .par_iter()
-        .zip(known)
-        .map(|(p, old)| {
-            let r = match ContentHash::of_file(p) {
-                Err(e) => Some(Err(e.into())),
-                Ok(hash) if old == Some(hash) => None,
-                Ok(hash) => Some(record_of(p, hash, params)),
-            };
-            bar.inc(1);
-            r
-        })
-        .collect();
+    let results = records_of_new(&writer, files, params, &bar);
     bar.finish_and_clear();
     let mut records = Vec::new();
     let mut unchanged = 0;

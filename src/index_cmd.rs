@@ -224,6 +224,34 @@ pub fn record_of(
     })
 }
 
+/// Records of `files` for `writer`'s index, in parallel, one per file: `None` for a file
+/// already indexed with the same content (each file is hashed once, and a known one is skipped
+/// before any other work), else the record or why it could not be made. Advances `bar` per file.
+pub fn records_of_new(
+    writer: &Writer,
+    files: &[PathBuf],
+    params: &DetectParams,
+    bar: &ProgressBar,
+) -> Vec<Option<Result<ShapeRecord<DIM>>>> {
+    let known: Vec<Option<ContentHash>> = files
+        .iter()
+        .map(|p| writer.lookup(&canonical_path(p)).map(|(_, h)| h))
+        .collect();
+    files
+        .par_iter()
+        .zip(known)
+        .map(|(p, old)| {
+            let r = match ContentHash::of_file(p) {
+                Err(e) => Some(Err(e.into())),
+                Ok(hash) if old == Some(hash) => None,
+                Ok(hash) => Some(record_of(p, hash, params)),
+            };
+            bar.inc(1);
+            r
+        })
+        .collect()
+}
+
 /// A progress bar on stderr, hidden when stderr is not a terminal.
 pub fn progress(len: u64, what: &str) -> ProgressBar {
     let bar = ProgressBar::with_draw_target(Some(len), ProgressDrawTarget::stderr());
@@ -257,27 +285,9 @@ fn add(args: AddArgs) -> Result<ExitCode> {
     let (mut added, mut replaced, mut unchanged) = (0usize, 0usize, 0usize);
     let mut failed: Vec<(PathBuf, String)> = Vec::new();
     for chunk in files.chunks(BATCH) {
-        // Each file is hashed once; one already indexed with the same content is skipped
-        // before any other work.
-        let known: Vec<Option<ContentHash>> = chunk
-            .iter()
-            .map(|p| writer.lookup(&canonical_path(p)).map(|(_, h)| h))
-            .collect();
-        let results: Vec<(PathBuf, Option<Result<ShapeRecord<DIM>>>)> = chunk
-            .par_iter()
-            .zip(known)
-            .map(|(p, old)| {
-                let r = match ContentHash::of_file(p) {
-                    Err(e) => Some(Err(e.into())),
-                    Ok(hash) if old == Some(hash) => None,
-                    Ok(hash) => Some(record_of(p, hash, &params)),
-                };
-                bar.inc(1);
-                (p.clone(), r)
-            })
-            .collect();
+        let results = records_of_new(&writer, chunk, &params, &bar);
         let mut records = Vec::new();
-        for (p, r) in results {
+        for (p, r) in chunk.iter().cloned().zip(results) {
             match r {
                 None => unchanged += 1,
                 Some(Ok(rec)) => records.push(rec),

@@ -134,20 +134,28 @@ impl EmbeddingCache {
     ///
     /// Errors: [`BenchError::Io`] with the folder or file.
     pub fn store(&self, key: u128, embedded: &Embedded) -> Result<(), BenchError> {
+        self.write_entry(
+            self.path(key),
+            &format!("{key:032x}"),
+            &encode(key, embedded),
+        )
+    }
+
+    /// Writes `bytes` to `path` in the cache folder through a temporary file named after
+    /// `stem`, fsync and rename (see the [module docs](self)).
+    fn write_entry(&self, path: PathBuf, stem: &str, bytes: &[u8]) -> Result<(), BenchError> {
         fs::create_dir_all(&self.dir).map_err(|source| BenchError::Io {
             path: self.dir.clone(),
             source,
         })?;
-        let path = self.path(key);
         let tmp = self.dir.join(format!(
-            ".{key:032x}.{}.{}.tmp",
+            ".{stem}.{}.{}.tmp",
             std::process::id(),
             TEMP_COUNTER.fetch_add(1, Ordering::Relaxed)
         ));
-        let bytes = encode(key, embedded);
         let result = (|| -> std::io::Result<()> {
             let mut f = fs::File::create(&tmp)?;
-            f.write_all(&bytes)?;
+            f.write_all(bytes)?;
             f.sync_data()?;
             fs::rename(&tmp, &path)
         })();
@@ -298,27 +306,11 @@ impl EmbeddingCache {
     ///
     /// Errors: [`BenchError::Io`] with the folder or file.
     pub fn store_mser(&self, key: u128, entry: &MserEntry) -> Result<(), BenchError> {
-        fs::create_dir_all(&self.dir).map_err(|source| BenchError::Io {
-            path: self.dir.clone(),
-            source,
-        })?;
-        let path = self.mser_path(key);
-        let tmp = self.dir.join(format!(
-            ".{key:032x}.{}.{}.msr.tmp",
-            std::process::id(),
-            TEMP_COUNTER.fetch_add(1, Ordering::Relaxed)
-        ));
-        let bytes = encode_mser(key, entry);
-        let result = (|| -> std::io::Result<()> {
-            let mut f = fs::File::create(&tmp)?;
-            f.write_all(&bytes)?;
-            f.sync_data()?;
-            fs::rename(&tmp, &path)
-        })();
-        if result.is_err() {
-            let _ = fs::remove_file(&tmp);
-        }
-        result.map_err(|source| BenchError::Io { path, source })
+        self.write_entry(
+            self.mser_path(key),
+            &format!("{key:032x}.msr"),
+            &encode_mser(key, entry),
+        )
     }
 }
 
