@@ -48,18 +48,8 @@ const MAGIC: &[u8; 8] = b"KCEMBED\0";
 const HEADER: usize = 8 + 4 + 16 + 4;
 const FOOTER: usize = 8 + 4 + 8;
 
-/// The content key of a stage-1 detection of `mesh` with these parameters (see the
-/// [module docs](self)).
-pub fn cache_key(
-    mesh: &Mesh,
-    harris: &HarrisParams,
-    smacof: &SmacofParams,
-    geodesic: &GeodesicOptions,
-) -> u128 {
-    let mut h = Xxh3::new();
-    h.update(b"keycomp-embedding\0");
-    h.update(&CACHE_VERSION.to_le_bytes());
-    h.update(DETECTION_VERSION.as_bytes());
+/// Feeds every coordinate (exact bits) and face of `mesh`, with their counts, to `h`.
+fn hash_mesh(h: &mut Xxh3, mesh: &Mesh) {
     h.update(&(mesh.positions.len() as u64).to_le_bytes());
     for p in &mesh.positions {
         for c in [p.x, p.y, p.z] {
@@ -72,6 +62,21 @@ pub fn cache_key(
             h.update(&v.to_le_bytes());
         }
     }
+}
+
+/// The content key of a stage-1 detection of `mesh` with these parameters (see the
+/// [module docs](self)).
+pub fn cache_key(
+    mesh: &Mesh,
+    harris: &HarrisParams,
+    smacof: &SmacofParams,
+    geodesic: &GeodesicOptions,
+) -> u128 {
+    let mut h = Xxh3::new();
+    h.update(b"keycomp-embedding\0");
+    h.update(&CACHE_VERSION.to_le_bytes());
+    h.update(DETECTION_VERSION.as_bytes());
+    hash_mesh(&mut h, mesh);
     // serialising plain parameter structs cannot fail; an empty string would still be a key
     h.update(serde_json::to_string(harris).unwrap_or_default().as_bytes());
     h.update(b"\0");
@@ -256,18 +261,7 @@ pub fn mser_cache_key(mesh: &Mesh, params: &MserParams) -> u128 {
     h.update(b"keycomp-mser\0");
     h.update(&CACHE_VERSION.to_le_bytes());
     h.update(MSER_VERSION.as_bytes());
-    h.update(&(mesh.positions.len() as u64).to_le_bytes());
-    for p in &mesh.positions {
-        for c in [p.x, p.y, p.z] {
-            h.update(&c.to_bits().to_le_bytes());
-        }
-    }
-    h.update(&(mesh.faces.len() as u64).to_le_bytes());
-    for f in &mesh.faces {
-        for v in f {
-            h.update(&v.to_le_bytes());
-        }
-    }
+    hash_mesh(&mut h, mesh);
     h.update(serde_json::to_string(params).unwrap_or_default().as_bytes());
     h.digest128()
 }

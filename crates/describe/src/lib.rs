@@ -42,8 +42,8 @@
 //! benchmark transformations*, lists 0, 10, 20 and 30 pairs). Smoothing before measuring is a
 //! choice of ours, not the paper's (the paper does not describe components).
 //!
-//! Cost: smoothing and the Harris response on the whole mesh (about 60–130 ms at 50k vertices
-//! on 2 threads), one fast-marching front per component (the distances from its centre), plus
+//! Cost: 60 smoothing passes over the whole mesh and a Harris response pass as costly as
+//! detection's own (BENCHMARKS.md section 2), one fast-marching front per component (the distances from its centre), plus
 //! linear passes over its vertices.
 
 use keycomp_components::Detection;
