@@ -8,8 +8,9 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
+use keycomp_bench::retrieval::partial::{PartialKind, cut_fragment};
 use keycomp_components::DetectParams;
-use keycomp_mesh::{Mesh, Point3, Topology, Vector3, cut, geometry};
+use keycomp_mesh::geometry;
 use keycomp_retrieval::{MatchParams, Ranked, rank};
 use keycomp_shapes::{Class, GenerateParams, Shape};
 use rand::{Rng, SeedableRng};
@@ -60,7 +61,7 @@ enum Kind {
     Whole,
     /// The part of an indexed shape on one side of a plane.
     Plane,
-    /// A ball of edge-path distance around a vertex of an indexed shape.
+    /// A geodesic ball around a vertex of an indexed shape.
     Ball,
 }
 
@@ -79,66 +80,6 @@ struct Query {
 fn class_of(path: &Path) -> Option<Class> {
     let stem = path.file_stem()?.to_str()?;
     Class::from_name(stem.rsplit_once('-')?.0)
-}
-
-/// The faces kept, in decreasing `key`, until their area reaches `fraction` of the total.
-fn keep_by_key(mesh: &Mesh, key: &[f64], fraction: f64) -> Vec<bool> {
-    let areas = geometry::face_areas(mesh);
-    let total: f64 = areas.iter().sum();
-    let mut order: Vec<usize> = (0..mesh.num_faces()).collect();
-    order.sort_by(|&a, &b| key[b].total_cmp(&key[a]).then(a.cmp(&b)));
-    let mut keep = vec![false; mesh.num_faces()];
-    let mut acc = 0.0;
-    for f in order {
-        if acc >= fraction * total {
-            break;
-        }
-        keep[f] = true;
-        acc += areas[f];
-    }
-    keep
-}
-
-/// The part of `mesh` on the positive side of a random plane, placed so about `fraction` of
-/// the area is kept ([`cut::cut_by_plane`]).
-fn plane_cut(mesh: &Mesh, fraction: f64, rng: &mut ChaCha8Rng) -> Mesh {
-    let (z, a): (f64, f64) = (
-        rng.random_range(-1.0..1.0),
-        rng.random_range(0.0..std::f64::consts::TAU),
-    );
-    let r = (1.0 - z * z).sqrt();
-    let normal = Vector3::new(r * a.cos(), r * a.sin(), z);
-    let centroid = |f: usize| {
-        let [p, q, s] = mesh.triangle(f);
-        (p.coords + q.coords + s.coords) / 3.0
-    };
-    let key: Vec<f64> = (0..mesh.num_faces())
-        .map(|f| centroid(f).dot(&normal))
-        .collect();
-    let keep = keep_by_key(mesh, &key, fraction);
-    // The plane at the smallest kept height: cut_by_plane keeps exactly those faces (up to
-    // faces whose centroids tie with it).
-    let threshold = (0..mesh.num_faces())
-        .filter(|&f| keep[f])
-        .map(|f| key[f])
-        .fold(f64::INFINITY, f64::min);
-    let point = Point3::from(normal * (threshold - 1e-12 * threshold.abs().max(1.0)));
-    cut::cut_by_plane(mesh, point, normal).0
-}
-
-/// The faces nearest (along edges) a random vertex, about `fraction` of the area
-/// ([`cut::submesh`]).
-fn ball_cut(mesh: &Mesh, fraction: f64, rng: &mut ChaCha8Rng) -> Mesh {
-    let topo = Topology::new(mesh);
-    let seed = rng.random_range(0..mesh.num_vertices()) as u32;
-    let d = report::edge_distances(mesh, &topo, seed);
-    let key: Vec<f64> = mesh
-        .faces
-        .iter()
-        .map(|f| -f.iter().map(|&v| d[v as usize]).fold(0.0, f64::max))
-        .collect();
-    let keep = keep_by_key(mesh, &key, fraction);
-    cut::submesh(mesh, |f| keep[f]).0
 }
 
 /// Indexes `files` into `index` exactly as `keycomp index add` does ([`open_writer`], which
@@ -248,11 +189,15 @@ pub fn run(args: Args) -> Result<ExitCode> {
             .find(|s| s.class == class && s.instance == ci % args.per_class)
             .context("source shape missing")?;
         let fraction = rng.random_range(0.3..0.6);
-        let (kind, part) = if ci % 2 == 0 {
-            (Kind::Plane, plane_cut(&src.mesh, fraction, &mut rng))
+        // the fragments of `keycomp bench retrieval`
+        let (kind, how) = if ci % 2 == 0 {
+            (Kind::Plane, PartialKind::Plane)
         } else {
-            (Kind::Ball, ball_cut(&src.mesh, fraction, &mut rng))
+            (Kind::Ball, PartialKind::Ball)
         };
+        let part = cut_fragment(&src.mesh, how, fraction, &mut rng)
+            .with_context(|| format!("cutting a {how} fragment of {}", src.name))?
+            .mesh;
         let kept = geometry::total_area(&part) / geometry::total_area(&src.mesh);
         let tag = match kind {
             Kind::Plane => "plane",

@@ -4,19 +4,19 @@
 //!
 //! Result meshes are read from the indexed paths. The index keeps each component's centre
 //! vertex and area fraction but not its vertex set, so a result's component is drawn as the
-//! region of that area around its centre (vertices taken in order of edge-path distance from
-//! the centre until their area reaches the stored fraction). A result whose file is missing or
+//! region of that area around its centre (vertices taken in order of geodesic distance from
+//! the centre, by fast marching, until their area reaches the stored fraction). A result whose file is missing or
 //! whose content hash differs from the indexed one is listed without a picture, saying why.
 //!
 //! The report is built in a temporary sibling directory and moved into place with renames, so
 //! `DIR` holds either the previous report or the new one, never a mixture.
 
-use std::cmp::Reverse;
-use std::collections::{BinaryHeap, HashMap};
+use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
+use keycomp_geodesic::GeodesicSolver;
 use keycomp_index::ContentHash;
 use keycomp_mesh::{Mesh, Point3, Topology, Vector3, VertexId, read_mesh};
 use keycomp_render::{RenderParams, render};
@@ -79,42 +79,18 @@ fn hex(c: [u8; 3]) -> String {
     format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2])
 }
 
-/// Shortest edge-path lengths from `source` to every vertex (Dijkstra on the mesh's edges;
-/// `f64::INFINITY` where unreachable).
-pub fn edge_distances(mesh: &Mesh, topo: &Topology, source: VertexId) -> Vec<f64> {
-    let mut dist = vec![f64::INFINITY; mesh.num_vertices()];
-    let Some(d0) = dist.get_mut(source as usize) else {
-        return dist;
-    };
-    *d0 = 0.0;
-    // Non-negative f64 bit patterns order like the numbers.
-    let mut heap = BinaryHeap::new();
-    heap.push(Reverse((0u64, source)));
-    while let Some(Reverse((bits, v))) = heap.pop() {
-        let d = f64::from_bits(bits);
-        if d > dist[v as usize] {
-            continue;
-        }
-        for &w in topo.neighbors(v) {
-            let nd = d + (mesh.positions[w as usize] - mesh.positions[v as usize]).norm();
-            if nd < dist[w as usize] {
-                dist[w as usize] = nd;
-                heap.push(Reverse((nd.to_bits(), w)));
-            }
-        }
-    }
-    dist
-}
-
-/// The vertices nearest `centre` along edges whose (barycentric) area adds up to
-/// `area_fraction` of the mesh's area: the picture of an indexed component.
+/// The vertices geodesically nearest `centre` (fast marching with `solver`, built on `mesh`)
+/// whose (barycentric) area adds up to `area_fraction` of the mesh's area: the picture of an
+/// indexed component. Empty if `centre` is not a vertex of the mesh.
 pub fn region_of_area(
     mesh: &Mesh,
-    topo: &Topology,
+    solver: &GeodesicSolver,
     centre: VertexId,
     area_fraction: f64,
 ) -> Vec<VertexId> {
-    let dist = edge_distances(mesh, topo, centre);
+    let Ok(dist) = solver.distance_field(centre) else {
+        return Vec::new();
+    };
     let areas = keycomp_mesh::geometry::vertex_areas(mesh);
     let total: f64 = areas.iter().sum();
     let mut order: Vec<VertexId> = (0..mesh.num_vertices() as VertexId)
@@ -198,7 +174,7 @@ pub fn principal_pose(mesh: &Mesh) -> Mesh {
 
 /// Why a result has no picture, or its mesh.
 enum ResultMesh {
-    Ok(Mesh, Topology),
+    Ok(Mesh, GeodesicSolver),
     Unavailable(String),
 }
 
@@ -210,10 +186,10 @@ fn load_result(path: &Path, expected: ContentHash) -> ResultMesh {
             ResultMesh::Unavailable("the file has changed since it was indexed".into())
         }
         Ok(_) => match read_mesh(path) {
-            Ok(l) => {
-                let topo = Topology::new(&l.mesh);
-                ResultMesh::Ok(l.mesh, topo)
-            }
+            Ok(l) => match GeodesicSolver::new(&l.mesh, &Topology::new(&l.mesh)) {
+                Ok(solver) => ResultMesh::Ok(l.mesh, solver),
+                Err(e) => ResultMesh::Unavailable(format!("the mesh cannot be measured: {e}")),
+            },
             Err(e) => ResultMesh::Unavailable(format!("the file cannot be read: {e}")),
         },
     }
@@ -365,14 +341,14 @@ fn build(out: &Path, reader: &Reader, entries: &[QueryEntry], params: &ReportPar
                 .entry(src.clone())
                 .or_insert_with(|| load_result(&src, rec.content_hash));
             let picture = match loaded {
-                ResultMesh::Ok(mesh, topo) => {
+                ResultMesh::Ok(mesh, solver) => {
                     let mut cols = vec![colors::GREY; mesh.num_vertices()];
                     let mut paint = |comp: usize, col: [u8; 3]| {
                         if let Some(c) = rec.components.get(comp)
                             && (c.centre_vertex as usize) < mesh.num_vertices()
                         {
                             let area = c.area_fraction as f64;
-                            for v in region_of_area(mesh, topo, c.centre_vertex, area) {
+                            for v in region_of_area(mesh, solver, c.centre_vertex, area) {
                                 cols[v as usize] = col;
                             }
                         }
@@ -444,19 +420,6 @@ mod tests {
     }
 
     #[test]
-    fn edge_distances_on_a_grid_are_manhattan_lengths() {
-        // unit grid: the shortest edge path follows axis edges and diagonals; along a row it is
-        // exactly the column difference
-        let m = synth::grid(5, 5, 1.0);
-        let topo = Topology::new(&m);
-        let d = edge_distances(&m, &topo, 0);
-        assert_eq!(d[0], 0.0);
-        for (i, &x) in d.iter().enumerate().take(5) {
-            assert!((x - i as f64).abs() < 1e-12, "{i}: {x}");
-        }
-    }
-
-    #[test]
     fn principal_pose_puts_the_longest_axis_on_x_and_keeps_shape() {
         // an ellipsoid-like sphere stretched along a tilted direction
         let mut m = synth::icosphere(3, 1.0);
@@ -489,14 +452,14 @@ mod tests {
     #[test]
     fn region_of_area_grows_with_the_fraction_and_contains_the_centre() {
         let m = synth::icosphere(3, 1.0);
-        let topo = Topology::new(&m);
-        let small = region_of_area(&m, &topo, 7, 0.1);
-        let big = region_of_area(&m, &topo, 7, 0.4);
+        let solver = GeodesicSolver::new(&m, &Topology::new(&m)).unwrap();
+        let small = region_of_area(&m, &solver, 7, 0.1);
+        let big = region_of_area(&m, &solver, 7, 0.4);
         assert_eq!(small[0], 7);
         assert!(small.len() < big.len());
         let n = m.num_vertices() as f64;
         assert!((small.len() as f64 / n - 0.1).abs() < 0.03);
         assert!((big.len() as f64 / n - 0.4).abs() < 0.03);
-        assert!(region_of_area(&m, &topo, 7, 1.0).len() == m.num_vertices());
+        assert!(region_of_area(&m, &solver, 7, 1.0).len() == m.num_vertices());
     }
 }
