@@ -1,5 +1,6 @@
 //! `keycomp bench retrieval`: retrieval quality of a labelled collection, key-components against
-//! the D2 shape distribution, on whole-shape and partial queries (issue 6).
+//! two baselines, the D2 shape distribution and an FPFH bag of words, on whole-shape and partial
+//! queries (issue 6).
 //!
 //! **Key-components** go through the product path: every collection file is analysed by
 //! [`crate::index_cmd::record_of`], the function `keycomp index add` uses, with the same
@@ -11,8 +12,20 @@
 //! to `keycomp query` would be. Shapes `rank` does not return (no shared candidate component,
 //! or a score of 0) follow in a seeded random order ([`complete_ranking`]).
 //!
-//! **D2** (Osada et al. 2002, [`keycomp_bench::retrieval::d2`]) ranks by L1 distance between
-//! histograms, on the same queries.
+//! **Baselines** are a descriptor per mesh and a distance between descriptors ([`Baseline`]),
+//! computed on the same queries (a fragment's descriptors from the fragment mesh that is written
+//! and indexed for key-components):
+//!
+//! * **D2** (Osada et al. 2002, [`keycomp_bench::retrieval::d2`]): L1 distance between
+//!   histograms.
+//! * **FPFH BoW** and **FPFH BoW units** (Rusu et al. 2009,
+//!   [`keycomp_bench::retrieval::fpfh`]): FPFHs of 3,000 points sampled on each mesh, a
+//!   256-word k-means codebook fitted on the collection's features, tf-idf weighted histograms
+//!   of words, cosine distance. The neighbourhood radius is 0.075·√A with A the mesh's own area
+//!   ("FPFH BoW", scale-free) or the median area of the collection's shapes ("FPFH BoW units":
+//!   one radius in file units for every shape and fragment, so a fragment keeps its source's
+//!   scale). The collection's points are sampled once and described at both radii; each mode
+//!   has its own codebook and idf, fitted before any fragment is cut.
 //!
 //! **Cache.** Records are cached in `OUT/cache` (or `--cache`) as JSON, keyed by a hash of the
 //! file's content, the detection parameters and the running executable's bytes: a rebuilt
@@ -31,6 +44,10 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use keycomp_bench::retrieval::d2::{D2Params, d2, l1};
+use keycomp_bench::retrieval::fpfh::{
+    BagOfWords, FpfhParams, FpfhScale, OrientedPoints, cosine_distance, features_of,
+    sample_oriented,
+};
 use keycomp_bench::retrieval::labels::{DEFAULT_CLASS_REGEX, classes_from_csv, classes_from_names};
 use keycomp_bench::retrieval::metrics::{QueryScores, Summary, score, summarize};
 use keycomp_bench::retrieval::partial::{PartialKind, cut_fragment};
@@ -39,7 +56,7 @@ use keycomp_bench::svg::Curve;
 use keycomp_components::DetectParams;
 use keycomp_describe::DIM;
 use keycomp_index::{ContentHash, ShapeRecord};
-use keycomp_mesh::read_mesh;
+use keycomp_mesh::{Mesh, read_mesh};
 use keycomp_retrieval::{MatchParams, rank};
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
@@ -60,9 +77,13 @@ pub const EXAMPLES: &str = "Examples:
 Ranks the collection for every whole shape (left out of its own ranking) and for partial
 queries cut from it (ball: geodesic ball, plane: plane cut, scan: one simulated range-scan
 view; each keeps 20-60 % of the area, drawn per query), once by key-components (detection and
-description as `keycomp index add` does, an on-disk index, `keycomp query`'s ranking) and once
-by the D2 shape distribution. Prints NN, FT, ST, E, DCG and mAP (Princeton Shape Benchmark
-definitions) and, for partial queries, the mean rank of the source shape. Writes
+description as `keycomp index add` does, an on-disk index, `keycomp query`'s ranking), by the
+D2 shape distribution, and by an FPFH bag of words (3,000 sampled points, FPFH at radius
+0.075*sqrt(area), a 256-word k-means codebook of the collection, tf-idf, cosine), once with
+each mesh's own area ('FPFH BoW', scale-free) and once with the collection's median area
+('FPFH BoW units', file units: fragments keep their source's scale). Prints NN, FT, ST, E,
+DCG and mAP (Princeton Shape Benchmark definitions) and, for partial queries, the mean rank of
+the source shape. Writes
 OUT/results.json, OUT/pr-<queries>.svg (precision-recall), OUT/fragments/*.off and OUT/index;
 detections are cached in OUT/cache.";
 
@@ -89,7 +110,7 @@ pub struct Args {
     #[arg(long, value_name = "N")]
     pub queries: Option<usize>,
     /// Seed of everything random (fragment sources, centres, directions and fractions; the
-    /// order of unranked shapes; D2 sampling).
+    /// order of unranked shapes; D2 and FPFH sampling, the FPFH codebook).
     #[arg(long, default_value_t = 0, value_name = "S")]
     pub seed: u64,
     /// Range of the area fraction a fragment keeps, drawn uniformly per query.
@@ -252,10 +273,69 @@ fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     Ok(())
 }
 
+/// How a [`Baseline`] describes a mesh.
+type Describe = Box<dyn Fn(&Mesh) -> Result<Vec<f64>> + Send + Sync>;
+
+/// A baseline method: one descriptor per mesh and a distance between two descriptors (smaller
+/// is more alike). Key-components are not one: they go through the product's index and ranking.
+struct Baseline {
+    /// Row label in the tables and curve label in the PR plots.
+    label: &'static str,
+    /// Key in `results.json`.
+    key: &'static str,
+    /// Descriptors of the collection's shapes, in collection order.
+    collection: Vec<Vec<f64>>,
+    /// The descriptor of another mesh (a fragment).
+    describe: Describe,
+    /// The distance between two descriptors.
+    distance: fn(&[f64], &[f64]) -> f64,
+}
+
+impl Baseline {
+    /// The collection from nearest to farthest from `query` (ties by index), without `exclude`.
+    fn ranking(&self, query: &[f64], exclude: Option<usize>) -> Vec<usize> {
+        let d: Vec<f64> = self
+            .collection
+            .iter()
+            .map(|c| (self.distance)(query, c))
+            .collect();
+        rank_by_distance(&d, exclude)
+    }
+}
+
+/// The FPFH bag-of-words baseline at one radius rule: a codebook and idf fitted on the
+/// collection's points (sampled once, `points[i]` for shape `i`), the collection's tf-idf
+/// vectors, and the description of other meshes with the same model.
+fn fpfh_baseline(
+    label: &'static str,
+    key: &'static str,
+    points: &[OrientedPoints],
+    files: &[PathBuf],
+    params: &FpfhParams,
+    scale: FpfhScale,
+) -> Result<Baseline> {
+    let features: Vec<_> = points
+        .par_iter()
+        .zip(files)
+        .map(|(p, f)| {
+            features_of(p, params, scale).with_context(|| format!("{}: {label}", f.display()))
+        })
+        .collect::<Result<_>>()?;
+    let (model, collection) = BagOfWords::fit(&features, params, scale)
+        .with_context(|| format!("{label}: cannot fit the codebook"))?;
+    Ok(Baseline {
+        label,
+        key,
+        collection,
+        describe: Box::new(move |m: &Mesh| Ok(model.describe(m)?)),
+        distance: cosine_distance,
+    })
+}
+
 /// A query's ranking scored for one method.
 #[derive(Debug, Serialize)]
 struct MethodResult {
-    /// Shapes the method returned before the random tail (every shape for D2).
+    /// Shapes the method returned before the random tail (every shape for a baseline).
     returned: usize,
     /// 1-based rank of the source shape (partial queries).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -290,10 +370,19 @@ struct QueryResult {
     #[serde(skip_serializing_if = "Option::is_none")]
     error: Option<String>,
     key_components: MethodResult,
-    d2: MethodResult,
+    /// One result per baseline, by [`Baseline::key`] (`d2`, `fpfh_bow`, `fpfh_bow_units`).
+    #[serde(flatten)]
+    baselines: BTreeMap<&'static str, MethodResult>,
     /// A seeded random ranking, the chance level of every measure (summarised only).
     #[serde(skip)]
     random: MethodResult,
+}
+
+impl QueryResult {
+    /// The result of one method: key-components for `None`, else the baseline with that key.
+    fn method(&self, key: Option<&str>) -> &MethodResult {
+        key.map_or(&self.key_components, |k| &self.baselines[k])
+    }
 }
 
 #[derive(Debug, Serialize)]
@@ -318,10 +407,12 @@ struct QuerySet {
     #[serde(skip_serializing_if = "Option::is_none")]
     mean_fraction: Option<f64>,
     key_components: MethodSummary,
-    d2: MethodSummary,
+    /// One summary per baseline, by [`Baseline::key`].
+    #[serde(flatten)]
+    baselines: BTreeMap<&'static str, MethodSummary>,
     /// A seeded random ranking of the same queries: the chance level.
     random: MethodSummary,
-    /// Both methods on the queries key-components answer (return at least one shape for).
+    /// Every method on the queries key-components answer (return at least one shape for).
     answered: Answered,
     results: Vec<QueryResult>,
 }
@@ -329,7 +420,8 @@ struct QuerySet {
 #[derive(Debug, Serialize)]
 struct Answered {
     key_components: MethodSummary,
-    d2: MethodSummary,
+    #[serde(flatten)]
+    baselines: BTreeMap<&'static str, MethodSummary>,
 }
 
 #[derive(Debug, Serialize)]
@@ -341,6 +433,10 @@ struct Results {
     fraction_range: (f64, f64),
     detect_params: DetectParams,
     d2_params: D2Params,
+    fpfh_params: FpfhParams,
+    /// The radius rule of each FPFH baseline (for "FPFH BoW units", the collection's median
+    /// surface area in file units squared).
+    fpfh_scales: BTreeMap<&'static str, FpfhScale>,
     /// Collection shapes without key-components (never returned by key-component queries).
     shapes_without_components: Vec<String>,
     components_per_shape: f64,
@@ -471,6 +567,10 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
         seed: sub_seed(args.seed, "d2", 0),
         ..D2Params::default()
     };
+    let fpfh_params = FpfhParams {
+        seed: sub_seed(args.seed, "fpfh", 0),
+        ..FpfhParams::default()
+    };
     fs::create_dir_all(&args.out)
         .with_context(|| format!("{}: cannot create the output folder", args.out.display()))?;
     let cache = RecordCache::new(
@@ -478,9 +578,9 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
         &params,
     );
 
-    // 1. the collection: index records (product path) and D2 histograms
+    // 1. the collection: index records (product path), D2 histograms, FPFH points
     let bar = progress(n as u64, "collection");
-    let analysed: Vec<Result<(ShapeRecord<DIM>, bool, Vec<f64>)>> = files
+    let analysed: Vec<Result<_>> = files
         .par_iter()
         .map(|p| {
             let r = (|| {
@@ -488,7 +588,9 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
                 let (rec, hit) = cache.record(p, hash, &params)?;
                 let mesh = read_mesh(p)?.mesh;
                 let h = d2(&mesh, &d2_params).with_context(|| format!("{}: D2", p.display()))?;
-                Ok((rec, hit, h))
+                let pts = sample_oriented(&mesh, &fpfh_params)
+                    .with_context(|| format!("{}: FPFH", p.display()))?;
+                Ok((rec, hit, h, pts))
             })();
             bar.inc(1);
             r
@@ -497,14 +599,47 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
     bar.finish_and_clear();
     let mut records = Vec::with_capacity(n);
     let mut hists = Vec::with_capacity(n);
+    let mut points = Vec::with_capacity(n);
     let mut hits = 0;
     for (p, r) in files.iter().zip(analysed) {
-        let (rec, hit, h) = r.with_context(|| format!("{}: cannot analyse", p.display()))?;
+        let (rec, hit, h, pts) = r.with_context(|| format!("{}: cannot analyse", p.display()))?;
         hits += usize::from(hit);
         records.push(rec);
         hists.push(h);
+        points.push(pts);
     }
     let detect_s = t0.elapsed().as_secs_f64();
+
+    // the baselines, fitted on the collection before any query
+    let t_fit = Instant::now();
+    let areas: Vec<f64> = points.iter().map(|p| p.area).collect();
+    let fpfh_scales = [
+        ("FPFH BoW", "fpfh_bow", FpfhScale::ScaleFree),
+        (
+            "FPFH BoW units",
+            "fpfh_bow_units",
+            FpfhScale::file_units(&areas),
+        ),
+    ];
+    let mut baselines = vec![Baseline {
+        label: "D2",
+        key: "d2",
+        collection: hists,
+        describe: Box::new(move |m: &Mesh| Ok(d2(m, &d2_params)?)),
+        distance: l1,
+    }];
+    for (label, key, scale) in fpfh_scales {
+        baselines.push(fpfh_baseline(
+            label,
+            key,
+            &points,
+            &files,
+            &fpfh_params,
+            scale,
+        )?);
+    }
+    drop(points);
+    let fit_s = t_fit.elapsed().as_secs_f64();
 
     // 2. a fresh index of the collection
     let index_dir = args.out.join("index");
@@ -554,8 +689,14 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
                 sub_seed(args.seed, "whole", i as u64),
             );
             let nret = returned.iter().filter(|&&j| j != i).count();
-            let dists: Vec<f64> = hists.iter().map(|h| l1(&hists[i], h)).collect();
-            let d2_order = rank_by_distance(&dists, Some(i));
+            let by_baseline = baselines
+                .iter()
+                .map(|b| {
+                    let order = b.ranking(&b.collection[i], Some(i));
+                    let m = method_result(&order, n - 1, &classes[i], &classes, &names, None);
+                    (b.key, m)
+                })
+                .collect();
             Ok(QueryResult {
                 query: names[i].clone(),
                 class: classes[i].clone(),
@@ -566,7 +707,7 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
                 components: records[i].components.len(),
                 error: None,
                 key_components: method_result(&kc_order, nret, &classes[i], &classes, &names, None),
-                d2: method_result(&d2_order, n - 1, &classes[i], &classes, &names, None),
+                baselines: by_baseline,
                 random: method_result(
                     &complete_ranking(&[], n, Some(i), sub_seed(args.seed, "random", i as u64)),
                     0,
@@ -578,7 +719,8 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
             })
         })
         .collect::<Result<_>>()?;
-    sets.push(query_set("whole", whole));
+    let methods: Vec<(&str, &str)> = baselines.iter().map(|b| (b.label, b.key)).collect();
+    sets.push(query_set("whole", whole, &methods));
 
     // 4. partial queries
     let per_kind = args.queries.unwrap_or(n);
@@ -607,7 +749,7 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
         f64,
         String,
         Result<ShapeRecord<DIM>>,
-        Vec<f64>,
+        Vec<Vec<f64>>,
         PathBuf,
     );
     let fragments: Vec<Result<Fragment>> = jobs
@@ -626,14 +768,27 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
                 keycomp_mesh::write_off(&frag.mesh, &tmp)?;
                 fs::rename(&tmp, &path)
                     .with_context(|| format!("{}: cannot write", path.display()))?;
-                let h = d2(&frag.mesh, &d2_params)
-                    .with_context(|| format!("{}: D2", path.display()))?;
+                let descriptors = baselines
+                    .iter()
+                    .map(|b| {
+                        (b.describe)(&frag.mesh)
+                            .with_context(|| format!("{}: {}", path.display(), b.label))
+                    })
+                    .collect::<Result<_>>()?;
                 // detection may legitimately fail on a fragment: the query then has no
                 // key-components (its ranking is random), which is reported
                 let rec = ContentHash::of_file(&path)
                     .map_err(anyhow::Error::from)
                     .and_then(|hash| cache.record(&path, hash, &params).map(|(r, _)| r));
-                Ok((src, target, frag.fraction, frag.detail, rec, h, path))
+                Ok((
+                    src,
+                    target,
+                    frag.fraction,
+                    frag.detail,
+                    rec,
+                    descriptors,
+                    path,
+                ))
             })();
             bar.inc(1);
             r
@@ -642,7 +797,7 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
     bar.finish_and_clear();
     let mut by_kind: BTreeMap<PartialKind, Vec<QueryResult>> = BTreeMap::new();
     for ((kind, q), f) in jobs.iter().zip(fragments) {
-        let (src, target, fraction, detail, rec, h, path) = f?;
+        let (src, target, fraction, detail, rec, descriptors, path) = f?;
         let (returned, components, error) = match &rec {
             Ok(r) => (kc_ranking(&reader, r, &index_of)?, r.components.len(), None),
             Err(e) => (Vec::new(), 0, Some(format!("{e:#}"))),
@@ -653,9 +808,16 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
             None,
             sub_seed(args.seed, &format!("{kind}-tail"), *q as u64),
         );
-        let dists: Vec<f64> = hists.iter().map(|x| l1(&h, x)).collect();
-        let d2_order = rank_by_distance(&dists, None);
         let class = &classes[src];
+        let by_baseline = baselines
+            .iter()
+            .zip(&descriptors)
+            .map(|(b, d)| {
+                let order = b.ranking(d, None);
+                let m = method_result(&order, n, class, &classes, &names, Some(src));
+                (b.key, m)
+            })
+            .collect();
         by_kind.entry(*kind).or_default().push(QueryResult {
             query: stem(&path),
             class: class.clone(),
@@ -673,7 +835,7 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
                 &names,
                 Some(src),
             ),
-            d2: method_result(&d2_order, n, class, &classes, &names, Some(src)),
+            baselines: by_baseline,
             random: method_result(
                 &complete_ranking(
                     &[],
@@ -690,7 +852,7 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
         });
     }
     for (kind, results) in by_kind {
-        sets.push(query_set(kind.name(), results));
+        sets.push(query_set(kind.name(), results, &methods));
     }
 
     // 5. outputs
@@ -706,6 +868,8 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
         fraction_range: args.area,
         detect_params: params,
         d2_params,
+        fpfh_params,
+        fpfh_scales: fpfh_scales.iter().map(|&(_, k, s)| (k, s)).collect(),
         shapes_without_components: records
             .iter()
             .zip(&names)
@@ -719,20 +883,20 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
     let json = serde_json::to_vec_pretty(&results).context("cannot serialise the results")?;
     write_atomic(&args.out.join("results.json"), &json)?;
     for set in &results.query_sets {
-        let curves = vec![
-            Curve {
-                label: "key-components".into(),
-                values: set.key_components.summary.mean.pr.clone(),
-            },
-            Curve {
-                label: "D2".into(),
-                values: set.d2.summary.mean.pr.clone(),
-            },
-            Curve {
-                label: "random".into(),
-                values: set.random.summary.mean.pr.clone(),
-            },
-        ];
+        let mut curves = vec![Curve {
+            label: "key-components".into(),
+            values: set.key_components.summary.mean.pr.clone(),
+        }];
+        for &(label, key) in &methods {
+            curves.push(Curve {
+                label: label.into(),
+                values: set.baselines[key].summary.mean.pr.clone(),
+            });
+        }
+        curves.push(Curve {
+            label: "random".into(),
+            values: set.random.summary.mean.pr.clone(),
+        });
         let title = format!(
             "{} queries ({}) on {}",
             set.name,
@@ -744,51 +908,70 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
             pr_svg(&title, &curves).as_bytes(),
         )?;
     }
+    let times = Times {
+        detect: detect_s,
+        fit: fit_s,
+        total: t0.elapsed().as_secs_f64(),
+    };
     let text = report_text(
         &results,
         &args,
         &detect.preset.to_string(),
         hits,
-        detect_s,
-        t0.elapsed().as_secs_f64(),
+        &methods,
+        &times,
     )?;
     output::print_text(&text)?;
     Ok(ExitCode::SUCCESS)
 }
 
-fn query_set(name: &str, results: Vec<QueryResult>) -> QuerySet {
+/// The summaries of one query set; `methods` are the baselines' (label, key) pairs.
+fn query_set(name: &str, results: Vec<QueryResult>, methods: &[(&str, &'static str)]) -> QuerySet {
     let fr: Vec<f64> = results.iter().filter_map(|r| r.fraction).collect();
     let all: Vec<&QueryResult> = results.iter().collect();
     let answered: Vec<&QueryResult> = results
         .iter()
         .filter(|r| r.key_components.returned > 0)
         .collect();
-    let key_components = summarize_method(&all, |r| &r.key_components);
-    let d2 = summarize_method(&all, |r| &r.d2);
-    let random = summarize_method(&all, |r| &r.random);
-    let answered = Answered {
-        key_components: summarize_method(&answered, |r| &r.key_components),
-        d2: summarize_method(&answered, |r| &r.d2),
+    let per_baseline = |rs: &[&QueryResult]| -> BTreeMap<&'static str, MethodSummary> {
+        methods
+            .iter()
+            .map(|&(_, key)| (key, summarize_method(rs, |r| &r.baselines[key])))
+            .collect()
     };
     QuerySet {
         name: name.to_string(),
         queries: results.len(),
         mean_fraction: (!fr.is_empty()).then(|| fr.iter().sum::<f64>() / fr.len() as f64),
-        key_components,
-        d2,
-        random,
-        answered,
+        key_components: summarize_method(&all, |r| &r.key_components),
+        baselines: per_baseline(&all),
+        random: summarize_method(&all, |r| &r.random),
+        answered: Answered {
+            key_components: summarize_method(&answered, |r| &r.key_components),
+            baselines: per_baseline(&answered),
+        },
         results,
     }
 }
 
+/// Wall-clock times of a run, in seconds.
+struct Times {
+    /// Analysing the collection (records, D2 histograms, FPFH points).
+    detect: f64,
+    /// Fitting the FPFH baselines (features of the collection, codebooks, idf).
+    fit: f64,
+    /// The whole run.
+    total: f64,
+}
+
+/// The tables printed on stdout; `methods` are the baselines' (label, key) pairs, in order.
 fn report_text(
     r: &Results,
     args: &Args,
     preset: &str,
     hits: usize,
-    detect_s: f64,
-    total_s: f64,
+    methods: &[(&str, &'static str)],
+    times: &Times,
 ) -> Result<String> {
     let mut s = String::new();
     writeln!(
@@ -822,11 +1005,14 @@ fn report_text(
         "|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
     )?;
     for set in &r.query_sets {
-        for (label, m) in [
-            ("key-components", &set.key_components),
-            ("D2", &set.d2),
-            ("random", &set.random),
-        ] {
+        let mut rows = vec![("key-components", &set.key_components)];
+        rows.extend(
+            methods
+                .iter()
+                .map(|&(label, key)| (label, &set.baselines[key])),
+        );
+        rows.push(("random", &set.random));
+        for (label, m) in rows {
             let x = &m.summary.mean;
             writeln!(
                 s,
@@ -855,14 +1041,14 @@ fn report_text(
     // the queries key-components answer
     writeln!(
         s,
-        "\nqueries for which key-components return at least one shape (both methods on the same \
+        "\nqueries for which key-components return at least one shape (every method on the same \
          queries):\n"
     )?;
     writeln!(
         s,
-        "| queries | answered | KC NN | KC FT | KC mAP | KC source rank | D2 NN | D2 FT | D2 mAP | D2 source rank |"
+        "| queries | answered | method | NN | FT | mAP | source rank |"
     )?;
-    writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|")?;
+    writeln!(s, "|---|---:|---|---:|---:|---:|---:|")?;
     let num = |v: f64| {
         if v.is_finite() {
             format!("{v:.3}")
@@ -872,22 +1058,26 @@ fn report_text(
     };
     let rank = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.1}"));
     for set in &r.query_sets {
-        let (k, d) = (&set.answered.key_components, &set.answered.d2);
-        writeln!(
-            s,
-            "| {} | {} of {} | {} | {} | {} | {} | {} | {} | {} | {} |",
-            set.name,
-            k.summary.queries + k.summary.undefined,
-            set.queries,
-            num(k.summary.mean.nn),
-            num(k.summary.mean.ft),
-            num(k.summary.mean.ap),
-            rank(k.mean_source_rank),
-            num(d.summary.mean.nn),
-            num(d.summary.mean.ft),
-            num(d.summary.mean.ap),
-            rank(d.mean_source_rank),
-        )?;
+        let k = &set.answered.key_components;
+        let mut rows = vec![("key-components", k)];
+        rows.extend(
+            methods
+                .iter()
+                .map(|&(label, key)| (label, &set.answered.baselines[key])),
+        );
+        for (label, m) in rows {
+            writeln!(
+                s,
+                "| {} | {} of {} | {label} | {} | {} | {} | {} |",
+                set.name,
+                k.summary.queries + k.summary.undefined,
+                set.queries,
+                num(m.summary.mean.nn),
+                num(m.summary.mean.ft),
+                num(m.summary.mean.ap),
+                rank(m.mean_source_rank),
+            )?;
+        }
     }
     // per class, whole-shape queries
     if let Some(whole) = r.query_sets.first() {
@@ -895,11 +1085,16 @@ fn report_text(
             s,
             "\nwhole-shape queries per class (mean; components = key-components per shape):\n"
         )?;
-        writeln!(
-            s,
-            "| class | shapes | components | KC NN | KC FT | KC mAP | D2 NN | D2 FT | D2 mAP |"
-        )?;
-        writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|")?;
+        let columns: Vec<(&str, Option<&str>)> = std::iter::once(("KC", None))
+            .chain(methods.iter().map(|&(label, key)| (label, Some(key))))
+            .collect();
+        let mut header = "| class | shapes | components |".to_string();
+        let mut rule = "|---|---:|---:|".to_string();
+        for (label, _) in &columns {
+            write!(header, " {label} NN | {label} FT | {label} mAP |")?;
+            rule.push_str("---:|---:|---:|");
+        }
+        writeln!(s, "{header}\n{rule}")?;
         for class in r.classes.keys() {
             let rs: Vec<&QueryResult> =
                 whole.results.iter().filter(|q| &q.class == class).collect();
@@ -911,18 +1106,22 @@ fn report_text(
                     format!("{:.3}", v.iter().sum::<f64>() / v.len() as f64)
                 }
             };
-            writeln!(
+            write!(
                 s,
-                "| {class} | {} | {} | {} | {} | {} | {} | {} | {} |",
+                "| {class} | {} | {} |",
                 rs.len(),
                 mean(&|q| Some(q.components as f64)).replace(".000", ""),
-                mean(&|q| q.key_components.nn),
-                mean(&|q| q.key_components.ft),
-                mean(&|q| q.key_components.ap),
-                mean(&|q| q.d2.nn),
-                mean(&|q| q.d2.ft),
-                mean(&|q| q.d2.ap)
             )?;
+            for &(_, key) in &columns {
+                write!(
+                    s,
+                    " {} | {} | {} |",
+                    mean(&|q| q.method(key).nn),
+                    mean(&|q| q.method(key).ft),
+                    mean(&|q| q.method(key).ap)
+                )?;
+            }
+            writeln!(s)?;
         }
     }
     let undefined: usize = r
@@ -941,9 +1140,12 @@ fn report_text(
         "\nPSB measures (micro-averaged over queries; macro-averages in results.json); \
          'random': a seeded shuffle, the chance level; 'no result': queries for which the \
          method returned no shape (ranked at random).\n\
-         time: {total_s:.1} s ({detect_s:.1} s analysing the collection, {hits} of {} records from the cache); \
-         wrote {}",
+         time: {:.1} s ({:.1} s analysing the collection, {hits} of {} records from the cache; \
+         {:.1} s fitting the FPFH codebooks); wrote {}",
+        times.total,
+        times.detect,
         r.shapes,
+        times.fit,
         args.out.join("results.json").display()
     )?;
     Ok(s)

@@ -4,9 +4,9 @@
 //! classic baseline of retrieval quality.
 //!
 //! **Sampling.** [`D2Params::pairs`] pairs of points, each point drawn independently and
-//! uniformly by area: a face with probability proportional to its area (binary search in the
-//! cumulative areas), then a uniform point of the triangle (`a + s·(b − a) + t·(c − a)` from
-//! `√u₁`, `u₂`, the formula given by Osada et al.). The random stream is ChaCha8 seeded with
+//! uniformly by area by [`AreaSampler`]: a face with probability proportional to its area
+//! (binary search in the cumulative areas), then a uniform point of the triangle (from `√u₁`,
+//! `u₂`, the formula given by Osada et al.). The random stream is ChaCha8 seeded with
 //! [`D2Params::seed`], so a mesh always gets the same histogram.
 //!
 //! **Scale.** Distances are divided by their mean (one of the normalisations Osada et al.
@@ -21,11 +21,13 @@
 //! the PDFs, one of the dissimilarity measures Osada et al. compare (others: χ², Bhattacharyya,
 //! norms of the CDFs).
 
-use rand::{Rng, SeedableRng};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
-use keycomp_mesh::{Mesh, geometry};
+use keycomp_mesh::Mesh;
+
+use super::sample::AreaSampler;
 
 /// Parameters of [`d2`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -71,30 +73,12 @@ pub fn d2(mesh: &Mesh, params: &D2Params) -> Result<Vec<f64>, D2Error> {
     if params.pairs == 0 || params.bins == 0 || !ok_range {
         return Err(D2Error::InvalidParams);
     }
-    let areas = geometry::face_areas(mesh);
-    let mut cumulative = Vec::with_capacity(areas.len());
-    let mut total = 0.0;
-    for a in &areas {
-        total += a;
-        cumulative.push(total);
-    }
-    if !(total > 0.0 && total.is_finite()) {
-        return Err(D2Error::ZeroArea);
-    }
+    let sampler = AreaSampler::new(mesh).ok_or(D2Error::ZeroArea)?;
     let mut rng = ChaCha8Rng::seed_from_u64(params.seed);
-    let sample = |rng: &mut ChaCha8Rng| {
-        let u = rng.random::<f64>() * total;
-        let f = cumulative.partition_point(|&c| c <= u).min(areas.len() - 1);
-        let [a, b, c] = mesh.triangle(f);
-        let r1 = rng.random::<f64>().sqrt();
-        let r2 = rng.random::<f64>();
-        // uniform in the triangle (Osada et al. 2002)
-        a.coords * (1.0 - r1) + b.coords * (r1 * (1.0 - r2)) + c.coords * (r1 * r2)
-    };
     let dists: Vec<f64> = (0..params.pairs)
         .map(|_| {
-            let p = sample(&mut rng);
-            let q = sample(&mut rng);
+            let (p, _) = sampler.sample(&mut rng);
+            let (q, _) = sampler.sample(&mut rng);
             (p - q).norm()
         })
         .collect();
@@ -188,6 +172,76 @@ mod tests {
         assert_ne!(other, same);
         // another sample of the same shape is close
         assert!(l1(&other, &same) < 0.1, "{}", l1(&other, &same));
+    }
+
+    /// The D2 histogram as computed before the sampler moved to [`AreaSampler`] (the code of
+    /// that version, inline): the refactor must not change a single count.
+    fn d2_before_the_shared_sampler(mesh: &Mesh, params: &D2Params) -> Vec<f64> {
+        use keycomp_mesh::geometry;
+        use rand::Rng;
+        let areas = geometry::face_areas(mesh);
+        let mut cumulative = Vec::with_capacity(areas.len());
+        let mut total = 0.0;
+        for a in &areas {
+            total += a;
+            cumulative.push(total);
+        }
+        let mut rng = ChaCha8Rng::seed_from_u64(params.seed);
+        let sample = |rng: &mut ChaCha8Rng| {
+            let u = rng.random::<f64>() * total;
+            let f = cumulative.partition_point(|&c| c <= u).min(areas.len() - 1);
+            let [a, b, c] = mesh.triangle(f);
+            let r1 = rng.random::<f64>().sqrt();
+            let r2 = rng.random::<f64>();
+            a.coords * (1.0 - r1) + b.coords * (r1 * (1.0 - r2)) + c.coords * (r1 * r2)
+        };
+        let dists: Vec<f64> = (0..params.pairs)
+            .map(|_| {
+                let p = sample(&mut rng);
+                let q = sample(&mut rng);
+                (p - q).norm()
+            })
+            .collect();
+        let mean = dists.iter().sum::<f64>() / dists.len() as f64;
+        let mut hist = vec![0.0; params.bins];
+        let scale = params.bins as f64 / (params.range * mean);
+        for d in dists {
+            let bin = ((d * scale) as usize).min(params.bins - 1);
+            hist[bin] += 1.0;
+        }
+        let n = params.pairs as f64;
+        for h in &mut hist {
+            *h /= n;
+        }
+        hist
+    }
+
+    #[test]
+    fn shared_sampler_keeps_the_histograms() {
+        let params = D2Params {
+            pairs: 1 << 16,
+            seed: 5,
+            ..D2Params::default()
+        };
+        let mut meshes = vec![
+            synth::icosphere(3, 1.0),
+            synth::torus(1.0, 0.3, 48, 16),
+            synth::protrusion_sphere(3, 0.5, 0.4),
+        ];
+        // a real mesh when the shared data is present
+        let real = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../../shared/data/watertight/1.off");
+        match keycomp_mesh::read_mesh(&real) {
+            Ok(m) => meshes.push(m.mesh),
+            Err(_) => eprintln!("skipping the real mesh: {} not readable", real.display()),
+        }
+        for m in &meshes {
+            // bitwise equal, not merely close
+            assert_eq!(
+                d2(m, &params).unwrap(),
+                d2_before_the_shared_sampler(m, &params)
+            );
+        }
     }
 
     #[test]

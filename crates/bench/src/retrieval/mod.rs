@@ -1,18 +1,22 @@
 //! Retrieval quality of a labelled collection (`keycomp bench retrieval`): whole-shape and
-//! partial queries, the Princeton Shape Benchmark measures ([`metrics`]), the D2 shape
-//! distribution as a baseline ([`d2`]), partial queries cut from the collection ([`partial`])
+//! partial queries, the Princeton Shape Benchmark measures ([`metrics`]), two baselines, the D2
+//! shape distribution ([`d2`]) and an FPFH bag of words ([`fpfh`]), both drawing their points
+//! with one area sampler ([`sample`]), partial queries cut from the collection ([`partial`])
 //! and class labels ([`labels`]).
 //!
-//! The command (in the `keycomp` binary) ranks the collection for every query twice, by
-//! key-components through the on-disk index and `keycomp_retrieval::rank`, and by D2 histogram
-//! distance, and scores both rankings with the same measures. This module holds what does not
-//! depend on the product: the measures, the baseline, the fragments and [`complete_ranking`],
-//! which turns a partial result list into a ranking of the whole collection.
+//! The command (in the `keycomp` binary) ranks the collection for every query by
+//! key-components through the on-disk index and `keycomp_retrieval::rank`, by D2 histogram
+//! distance and by the cosine distance of FPFH bags of words, and scores every ranking with
+//! the same measures. This module holds what does not depend on the product: the measures, the
+//! baselines, the fragments and [`complete_ranking`], which turns a partial result list into a
+//! ranking of the whole collection.
 
 pub mod d2;
+pub mod fpfh;
 pub mod labels;
 pub mod metrics;
 pub mod partial;
+pub mod sample;
 
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
