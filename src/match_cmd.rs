@@ -105,17 +105,36 @@ struct Timings {
     matching: f64,
 }
 
-fn pair_colors(mesh: &Mesh, det: &Detection, pairs: &[(usize, usize)]) -> Vec<[u8; 3]> {
+/// Vertex colours of one side of a match: the detection's key-components dark grey, matched
+/// parts (indices into `desc`) in their pair's colour, larger parts first so that smaller ones
+/// stay visible on top.
+fn pair_colors(
+    mesh: &Mesh,
+    det: &Detection,
+    desc: &keycomp_describe::ShapeDescription,
+    pairs: &[(usize, usize)],
+) -> Vec<[u8; 3]> {
     let mut cols = vec![colors::GREY; mesh.num_vertices()];
     for c in &det.components {
         for &v in &c.vertices {
             cols[v as usize] = [110, 110, 110]; // unmatched components: dark grey
         }
     }
-    for &(k, comp) in pairs {
+    let mut order: Vec<&(usize, usize)> = pairs
+        .iter()
+        .filter(|(_, c)| *c < desc.components.len())
+        .collect();
+    order.sort_by(|a, b| {
+        desc.components[b.1]
+            .area
+            .total_cmp(&desc.components[a.1].area)
+    });
+    for &&(k, comp) in &order {
         let col = colors::distinct(k);
-        for &v in &det.components[comp].vertices {
-            cols[v as usize] = col;
+        for &v in &desc.components[comp].vertices {
+            if let Some(c) = cols.get_mut(v as usize) {
+                *c = col;
+            }
         }
     }
     cols
@@ -147,7 +166,11 @@ pub fn run(args: Args) -> Result<ExitCode> {
             .enumerate()
             .map(|(k, x)| (k, x.query))
             .collect();
-        keycomp_mesh::write_ply_colored(&a.mesh, &pair_colors(&a.mesh, &a.detection, &pairs), out)?;
+        keycomp_mesh::write_ply_colored(
+            &a.mesh,
+            &pair_colors(&a.mesh, &a.detection, &a.description, &pairs),
+            out,
+        )?;
     }
     if let Some(out) = &args.ply_b {
         let pairs: Vec<(usize, usize)> = m
@@ -156,7 +179,11 @@ pub fn run(args: Args) -> Result<ExitCode> {
             .enumerate()
             .map(|(k, x)| (k, x.target))
             .collect();
-        keycomp_mesh::write_ply_colored(&b.mesh, &pair_colors(&b.mesh, &b.detection, &pairs), out)?;
+        keycomp_mesh::write_ply_colored(
+            &b.mesh,
+            &pair_colors(&b.mesh, &b.detection, &b.description, &pairs),
+            out,
+        )?;
     }
     if args.json {
         output::print_json(&Report {

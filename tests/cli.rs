@@ -308,11 +308,13 @@ fn match_pairs_a_shape_with_its_moved_copy() {
     ]);
     assert!(o.status.success(), "stderr: {}", stderr(&o));
     let v: Value = serde_json::from_slice(&o.stdout).expect("valid JSON");
-    assert_eq!(v["components_a"], 6);
-    assert_eq!(v["components_b"], 6);
+    // six key-components, patches at every level and the whole surface on both sides
+    let parts = v["components_a"].as_u64().expect("count");
+    assert!(parts > 6 + 6, "{v}");
+    assert_eq!(v["components_b"].as_u64(), Some(parts));
     let matches = v["matches"].as_array().expect("matches");
-    assert_eq!(matches.len(), 6);
-    // a rotated, scaled copy: every component pairs with itself (same detection order)
+    assert_eq!(matches.len() as u64, parts);
+    // a rotated, scaled copy: every part pairs with itself (same order)
     for m in matches {
         assert_eq!(m["a_component"], m["b_component"]);
     }

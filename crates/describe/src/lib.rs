@@ -1,64 +1,109 @@
-//! Descriptors of key-components, for retrieval and part-to-part matching.
+//! Descriptors of a shape's parts, for retrieval and part-to-part matching.
 //!
-//! Each key-component found by `keycomp_components::detect` (Sipiran & Bustos, "Key-components:
-//! detection of salient regions on 3D meshes", The Visual Computer 29, 2013) gets one
-//! fixed-length vector of [`DIM`] numbers built from the Harris response inside it and from
-//! geodesic statistics around its geodesic centre, and the shape gets a *layout*: the geodesic
-//! distances between its components' centres, used to check that matched components sit in the
-//! same arrangement (DESIGN "Retrieval").
+//! A shape is described by *parts* built on its key-components (Sipiran & Bustos,
+//! "Key-components: detection of salient regions on 3D meshes", The Visual Computer 29, 2013):
+//! each part gets one fixed-length vector of [`DIM`] numbers built from the Harris response
+//! inside it, geodesic statistics around its centre, curvature and point-pair statistics, and
+//! the shape gets a *layout*: the geodesic distances between its parts' centres, used to check
+//! that matched parts sit in the same arrangement (DESIGN "Retrieval").
+//!
+//! # Parts
+//!
+//! 1. **Key-components** (level 0): the components of the detection, as found.
+//! 2. **Patches** (levels 1..=L): for each radius r of [`DescribeParams::levels`] (in the
+//!    length unit, see [`Units`]), geodesic balls of radius r centred on the detection's
+//!    keypoints, best response first, skipping a keypoint closer than r to a centre already
+//!    taken, then (when the keypoints run out) on the vertex farthest from every centre, up to
+//!    [`DescribeParams::patches_per_level`] per level. The radii form a geometric series
+//!    (factor 1.5), so a fragment scaled to its own unit area still finds, one or two levels
+//!    lower, patches of the size of the whole shape's; the descriptors are scale-free, so parts
+//!    of different levels are compared directly and the layout check estimates the scale.
+//! 3. **The whole surface** (level L + 1), centred on the vertex nearest the area-weighted
+//!    centroid, unless [`DescribeParams::whole`] is off. Its layout distances are
+//!    [`NO_DISTANCE`].
+//!
+//! So every shape with at least one vertex has parts, whether or not the detection found
+//! key-components, and a shape has tens of them instead of the detection's 0–5.
 //!
 //! # The descriptor, bin by bin
 //!
-//! Every part is invariant to rigid motion and to uniform scale: histograms are of ratios, and
-//! the scalars are ratios of lengths or areas measured on the component itself, never on the
-//! whole shape (a fragment of a shape has a different total area, and its components must still
-//! match the full shape's). All histograms are area-weighted (barycentric vertex areas) and sum
-//! to 1, so they do not depend on the tessellation's density.
+//! Every entry is invariant to rigid motion and to uniform scale: histograms are of ratios, and
+//! the scalars are ratios of lengths or areas measured on the part itself, never on the whole
+//! shape. Histograms are area-weighted (barycentric vertex areas; pairs are drawn by area) and
+//! each sums to 1, so they do not depend on the tessellation's density.
 //!
 //! | bins | what | why |
 //! |---|---|---|
-//! | 0–7 | Harris response (recomputed on the smoothed surface, see *Smoothing*) `h/h_max` inside the component (`h_max` = its largest response), on a log scale: bin `b` holds `log10(h/h_max) ∈ [−(8−b)/2, −(7−b)/2)`, bin 0 also everything below 10⁻⁴ and `h ≤ 0` | how concentrated the salient features are: a sharp tip has a few strong responses, a textured region many similar ones |
-//! | 8–15 | geodesic distance from the centre divided by the component's geodesic radius (largest such distance), 8 equal bins over [0, 1] | how area grows with distance: a disc grows linearly, a finger stays flat, a cone grows fast |
+//! | 0–7 | Harris response (recomputed on the smoothed surface, see *Smoothing*) `h/h_max` inside the part (`h_max` = its largest response), on a log scale: bin `b` holds `log10(h/h_max) ∈ [−(8−b)/2, −(7−b)/2)`, bin 0 also everything below 10⁻⁴ and `h ≤ 0` | how concentrated the salient features are: a sharp tip has a few strong responses, a textured region many similar ones |
+//! | 8–15 | geodesic distance from the centre divided by the part's geodesic radius (largest such distance), 8 equal bins over [0, 1] | how area grows with distance: a disc grows linearly, a finger stays flat, a cone grows fast |
 //! | 16–23 | `‖x − c‖ / d_geo(c, x)` for vertices beyond 20 % of the radius, 8 equal bins over [0, 1] | bending: 1 on a flat patch, lower the more the surface curls back (a fingertip, an ear) |
-//! | 24–27 | angle between each vertex normal and the component's mean normal, 4 equal bins over [0, π] | how much the surface turns: flat, cap, tube, or wrapped |
-//! | 28 | `ln(radius / √area)` of the component, shifted by `ln(1/√π)` (0 for a flat disc) | elongation along the surface |
-//! | 29 | `λ2/λ1` of the component's vertex covariance | in-space elongation |
+//! | 24–27 | angle between each vertex normal and the part's mean normal, 4 equal bins over [0, π] | how much the surface turns: flat, cap, tube, or wrapped |
+//! | 28 | `ln(radius / √area)` of the part, shifted by `ln(1/√π)` (0 for a flat disc) | elongation along the surface |
+//! | 29 | `λ2/λ1` of the part's vertex covariance | in-space elongation |
 //! | 30 | `λ3/λ1` of the same | flatness (0 flat, 1 ball-like) |
-//! | 31 | keypoint density: `(K_c/V_c)/(K/V)` mapped by `x/(1+x)` | how much of the shape's saliency the component gathers, relative to the shape's average |
+//! | 31 | keypoint density: `(K_c/V_c)/(K/V)` mapped by `x/(1+x)` | how much of the shape's saliency the part gathers, relative to the shape's average |
+//! | 32–39 | shape index `(2/π)·atan2(κ1 + κ2, κ1 − κ2)` (Koenderink & van Doorn 1992), principal curvatures from the Harris quadratic fit (the same fit as bins 0–7) oriented by the vertex normal, 8 equal bins over [−1, 1] | the local surface type: cup, rut, saddle, ridge, cap |
+//! | 40–47 | curvedness `√((κ1² + κ2²)/2)` times the part's radius, `log10` in 8 equal bins over [−2, 1] | how curved the surface is relative to the part's size |
+//! | 48–55 | Euclidean distance of [`PAIRS`] area-sampled point pairs over twice the radius, 8 equal bins over [0, 1] (D2 of Osada et al. 2002, inside the part) | the part's extent in space: compact or spread |
+//! | 56–63 | angle between the normals of the same pairs, 8 equal bins over [0, π] | how the part's orientations are distributed (a surflet-pair statistic, Wahl et al. 2003) |
 //!
 //! Scalars are weighted ([`SCALAR_WEIGHT`]) so that each is worth about one histogram bin
-//! difference at most. Euclidean distance between descriptors is the dissimilarity.
+//! difference at most. Euclidean distance between descriptors is the dissimilarity. The pairs
+//! are drawn by a generator seeded by the part's centre and level: the same mesh gives the same
+//! numbers.
 //!
 //! # Smoothing
 //!
-//! Everything above is measured on a smoothed copy of the surface (the shape scaled to unit
-//! area, then [`DescribeParams::smoothing_iterations`] = 30 Taubin λ|μ pairs, [`smooth`]), with
-//! the Harris response recomputed there; the component's vertices, keypoints and centre come
-//! from the detection on the surface as it is. Per-vertex responses and normals are what
+//! Everything above is measured on a smoothed copy of the surface (the shape in its length
+//! unit, then [`DescribeParams::smoothing_iterations`] = 30 Taubin λ|μ pairs, [`smooth`]), with
+//! the Harris fit recomputed there; key-components' vertices, the keypoints and the centres
+//! come from the detection on the surface as it is. Per-vertex responses and normals are what
 //! Gaussian noise scrambles, and noise lengthens geodesics: described on the raw surface,
 //! corresponding components under the benchmark's noise (strength 3) were as far apart as
-//! unrelated ones (median 0.91 vs 0.99); on the smoothed copy 0.28 vs 0.53, with the other
-//! transformations and the TOSCA pose test unchanged (BENCHMARKS.md, *Descriptors under the
-//! benchmark transformations*, lists 0, 10, 20 and 30 pairs). Smoothing before measuring is a
-//! choice of ours, not the paper's (the paper does not describe components).
+//! unrelated ones (median 0.91 vs 0.99); on the smoothed copy 0.28 vs 0.53 (BENCHMARKS.md,
+//! *Descriptors under the benchmark transformations*, measured with the 32-value descriptor of
+//! version 2). Smoothing before measuring is a choice of ours, not the paper's (the paper does
+//! not describe components).
 //!
-//! Cost: 60 smoothing passes over the whole mesh and a Harris response pass as costly as
-//! detection's own (BENCHMARKS.md section 2), one fast-marching front per component (the distances from its centre), plus
-//! linear passes over its vertices.
+//! Cost: 60 smoothing passes over the whole mesh, a Harris fit per vertex as costly as
+//! detection's own, one fast-marching front per distinct part centre (kept for the layout),
+//! plus linear passes over each part's vertices and [`PAIRS`] draws per part.
+
+use std::collections::HashMap;
 
 use keycomp_components::Detection;
 use keycomp_geodesic::{GeodesicError, GeodesicSolver};
+use keycomp_harris::LocalFit;
 use keycomp_mesh::{Mesh, Topology, Vector3, geometry};
 use nalgebra::Matrix3;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 pub mod smooth;
 
 /// Version of the descriptor's definition: bumped whenever the same mesh and detection would
 /// give other numbers, so that an index never compares descriptors made two ways (the CLI
-/// records it in the index's profile). 1: session 1 (raw surface); 2: smoothed surface with
-/// the Harris response recomputed there.
-pub const DESCRIPTOR_VERSION: u32 = 2;
+/// records it in the index's profile). Version 3: 64 values per part, parts at several scales
+/// (see *Parts*); version 2 (32 values, the detection's key-components only) is no longer made.
+pub const DESCRIPTOR_VERSION: u32 = 3;
+
+/// The length unit shapes are measured in before description.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case", tag = "kind")]
+pub enum Units {
+    /// Scale-free: every mesh is scaled to unit area on its own, so a fragment is measured in
+    /// units of its own size (the default).
+    #[default]
+    ScaleFree,
+    /// Known units: every mesh is measured in file units divided by `length` (the collection's
+    /// typical size, e.g. the square root of its median area), so a fragment keeps its
+    /// source's scale.
+    File {
+        /// The length unit, in file units (> 0).
+        length: f64,
+    },
+}
 
 /// Parameters of [`describe_with`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -67,10 +112,19 @@ pub struct DescribeParams {
     /// Taubin λ|μ pairs applied to the surface before describing (see *Smoothing*). Default 30;
     /// 0 describes the surface as it is.
     pub smoothing_iterations: usize,
-    /// Harris 3D settings of the response histogram (bins 0–7), computed on the smoothed
+    /// Harris 3D settings of the response and curvature histograms, computed on the smoothed
     /// surface. Default: the detector's defaults, whatever the detection used, so that every
     /// shape of an index is described alike.
     pub harris: keycomp_harris::HarrisParams,
+    /// Geodesic radii of the patch levels, in the length unit of [`DescribeParams::units`]
+    /// (see *Parts*). Default 0.06, 0.09, 0.135, 0.2, 0.3, 0.45 (factor 1.5).
+    pub levels: Vec<f64>,
+    /// Most patches per level. Default 6.
+    pub patches_per_level: usize,
+    /// Adds the whole surface as one more part. Default true.
+    pub whole: bool,
+    /// Length unit. Default [`Units::ScaleFree`].
+    pub units: Units,
 }
 
 impl Default for DescribeParams {
@@ -78,15 +132,25 @@ impl Default for DescribeParams {
         DescribeParams {
             smoothing_iterations: 30,
             harris: keycomp_harris::HarrisParams::default(),
+            levels: vec![0.06, 0.09, 0.135, 0.2, 0.3, 0.45],
+            patches_per_level: 6,
+            whole: true,
+            units: Units::ScaleFree,
         }
     }
 }
 
 /// Number of values in a component descriptor.
-pub const DIM: usize = 32;
+pub const DIM: usize = 64;
 
 /// Weight of the four scalar entries (28–31) relative to histogram bins.
 pub const SCALAR_WEIGHT: f32 = 0.5;
+
+/// Random point pairs drawn per part for the pair histograms (bins 48–63).
+pub const PAIRS: usize = 512;
+
+/// Layout entry of a pair of parts without a meaningful distance (the whole-surface part).
+pub const NO_DISTANCE: f32 = -1.0;
 
 /// A key-component's descriptor.
 pub type Descriptor = [f32; DIM];
@@ -108,32 +172,41 @@ pub enum DescribeError {
         /// Vertices of the mesh.
         vertices: usize,
     },
+    /// The parameters cannot describe anything.
+    #[error("invalid description parameters: {0}")]
+    Params(String),
 }
 
-/// One described key-component.
+/// One described part.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ComponentDescription {
     /// The descriptor (see the module documentation).
+    #[serde(with = "serde_big_array::BigArray")]
     pub descriptor: Descriptor,
-    /// The component's geodesic centre (vertex id).
+    /// The part's centre (vertex id).
     pub center: u32,
-    /// Area of the component as a fraction of the shape's area.
+    /// Area of the part as a fraction of the shape's area.
     pub area: f64,
-    /// Number of keypoints in the component's cluster.
+    /// Number of detection keypoints in the part.
     pub keypoints: usize,
-    /// Largest geodesic distance from the centre to a vertex of the component, in units of the
-    /// shape scaled to unit area.
+    /// Largest geodesic distance from the centre to a vertex of the part, in the length unit.
     pub radius: f64,
+    /// 0: a key-component of the detection; 1..=L: a patch of level L; L + 1: the whole
+    /// surface (see *Parts*).
+    pub level: u8,
+    /// The part's vertices.
+    pub vertices: Vec<u32>,
 }
 
-/// A shape's components and their layout.
+/// A shape's parts and their layout.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ShapeDescription {
-    /// One entry per key-component, in detection order.
+    /// Key-components first (in detection order), then patches level by level, then the whole
+    /// surface.
     pub components: Vec<ComponentDescription>,
-    /// Geodesic distances between component centres, `m × m` row-major, in units of the shape
-    /// scaled to unit area (symmetrised; pairs on different connected pieces get `f32::INFINITY`
-    /// replaced by twice the largest finite value, or 0 when there is none).
+    /// Geodesic distances between part centres, `m × m` row-major, in the length unit
+    /// (symmetrised; pairs on different connected pieces get twice the largest finite value;
+    /// pairs with the whole-surface part get [`NO_DISTANCE`]).
     pub layout: Vec<f32>,
 }
 
@@ -180,141 +253,256 @@ fn normalise(h: &mut [f32]) {
     }
 }
 
+/// Per-vertex quantities of the smoothed, rescaled surface.
+struct Surface {
+    mesh: Mesh,
+    response: Vec<f64>,
+    /// Koenderink's shape index in [−1, 1], NaN without a fit.
+    shape_index: Vec<f64>,
+    /// Curvedness √((κ1² + κ2²)/2) in inverse length units, NaN without a fit.
+    curvedness: Vec<f64>,
+    areas: Vec<f64>,
+    normals: Vec<Vector3<f64>>,
+    total_keypoints: f64,
+    vertices: f64,
+}
+
+/// Principal curvatures of a fit, oriented by `normal` (κ1 ≥ κ2), in the fit's units.
+fn curvatures(fit: &LocalFit, normal: &Vector3<f64>) -> (f64, f64) {
+    let [p1, p2, p3, ..] = fit.coefficients;
+    let mean = 0.5 * (p1 + p3);
+    let dev = (0.25 * (p1 - p3) * (p1 - p3) + p2 * p2).sqrt();
+    let (k1, k2) = (mean + dev, mean - dev);
+    if fit.frame[2].dot(normal) < 0.0 {
+        (-k2, -k1)
+    } else {
+        (k1, k2)
+    }
+}
+
+/// Fronts from part centres, computed once per centre.
+struct Fronts<'a> {
+    solver: &'a GeodesicSolver,
+    ws: keycomp_geodesic::Workspace,
+    done: HashMap<u32, Vec<f64>>,
+}
+
+impl Fronts<'_> {
+    fn get(&mut self, c: u32) -> Result<&Vec<f64>, DescribeError> {
+        if !self.done.contains_key(&c) {
+            self.solver.solve(c, &mut self.ws)?;
+            self.done.insert(c, self.ws.distances().to_vec());
+        }
+        Ok(&self.done[&c])
+    }
+}
+
+/// A part before description.
+struct Part {
+    center: u32,
+    vertices: Vec<u32>,
+    keypoints: usize,
+    level: u8,
+}
+
 /// Describes every key-component of `det`, which must be the detection of `mesh`, with the
 /// default [`DescribeParams`].
 pub fn describe(mesh: &Mesh, det: &Detection) -> Result<ShapeDescription, DescribeError> {
     describe_with(mesh, det, &DescribeParams::default())
 }
 
-/// Describes every key-component of `det`, which must be the detection of `mesh`.
+/// Describes the parts of `mesh` (see *Parts*): the key-components of `det`, which must be the
+/// detection of `mesh`, patches around its keypoints at every level, and the whole surface.
 pub fn describe_with(
     mesh: &Mesh,
     det: &Detection,
     params: &DescribeParams,
 ) -> Result<ShapeDescription, DescribeError> {
     let n = mesh.num_vertices();
-    for c in &det.components {
-        if let Some(&v) = c
-            .vertices
-            .iter()
-            .chain(std::iter::once(&c.center))
-            .find(|&&v| v as usize >= n)
-        {
+    for &v in det
+        .components
+        .iter()
+        .flat_map(|c| c.vertices.iter().chain(std::iter::once(&c.center)))
+        .chain(&det.keypoints)
+    {
+        if v as usize >= n {
             return Err(DescribeError::Mismatch {
                 vertex: v,
                 vertices: n,
             });
         }
     }
-    let (mut norm, _) = geometry::normalize_unit_area(mesh);
+    if params.levels.len() > 200 || params.levels.iter().any(|r| !(r.is_finite() && *r > 0.0)) {
+        return Err(DescribeError::Params(format!(
+            "levels must be at most 200 positive radii, got {:?}",
+            params.levels
+        )));
+    }
+    let area = geometry::total_area(mesh);
+    let scale = match params.units {
+        Units::ScaleFree => {
+            if area > 0.0 {
+                1.0 / area.sqrt()
+            } else {
+                1.0
+            }
+        }
+        Units::File { length } => {
+            if !(length.is_finite() && length > 0.0) {
+                return Err(DescribeError::Params(format!(
+                    "the length unit must be positive, got {length}"
+                )));
+            }
+            1.0 / length
+        }
+    };
+    let mut norm = Mesh {
+        positions: mesh.positions.iter().map(|p| p * scale).collect(),
+        faces: mesh.faces.clone(),
+    };
     let topo = Topology::new(&norm);
     norm.positions = smooth::taubin(&norm, &topo, params.smoothing_iterations);
-    let response = keycomp_harris::harris_response(&norm, &topo, &params.harris);
-    let solver = GeodesicSolver::new(&norm, &topo)?;
-    let areas = geometry::vertex_areas(&norm);
     let normals = area_weighted_normals(&norm);
-    let total_keypoints = det.keypoints.len().max(1) as f64;
-    let referenced = n.max(1) as f64;
+    let fits = keycomp_harris::local_fits(&norm, &topo, &params.harris);
+    // Fits are in units of the smoothed mesh scaled to unit area; curvatures scale back.
+    let norm_area = geometry::total_area(&norm);
+    let to_len = if norm_area > 0.0 {
+        1.0 / norm_area.sqrt()
+    } else {
+        1.0
+    };
+    let mut response = vec![f64::NAN; n];
+    let mut shape_index = vec![f64::NAN; n];
+    let mut curvedness = vec![f64::NAN; n];
+    for (v, f) in fits.iter().enumerate() {
+        if let Some(f) = f {
+            let h = keycomp_harris::response_from_coefficients(&f.coefficients, params.harris.k);
+            response[v] = if h.is_finite() { h } else { f64::NAN };
+            let (k1, k2) = curvatures(f, &normals[v]);
+            shape_index[v] = (2.0 / std::f64::consts::PI) * (k1 + k2).atan2(k1 - k2);
+            curvedness[v] = ((k1 * k1 + k2 * k2) / 2.0).sqrt() * to_len;
+        }
+    }
+    let solver = GeodesicSolver::new(&norm, &topo)?;
+    let surface = Surface {
+        areas: geometry::vertex_areas(&norm),
+        mesh: norm,
+        response,
+        shape_index,
+        curvedness,
+        normals,
+        total_keypoints: det.keypoints.len().max(1) as f64,
+        vertices: n.max(1) as f64,
+    };
+    let total: f64 = surface.areas.iter().sum();
+    let mut fronts = Fronts {
+        solver: &solver,
+        ws: solver.workspace(),
+        done: HashMap::new(),
+    };
+    let mut is_keypoint = vec![false; n];
+    for &k in &det.keypoints {
+        is_keypoint[k as usize] = true;
+    }
+    let count_keypoints = |vs: &[u32]| vs.iter().filter(|&&v| is_keypoint[v as usize]).count();
 
-    let m = det.components.len();
-    let centers: Vec<u32> = det.components.iter().map(|c| c.center).collect();
-    let mut layout = vec![0f32; m * m];
-    let mut ws = solver.workspace();
-    let mut components = Vec::with_capacity(m);
-    for (ci, c) in det.components.iter().enumerate() {
-        solver.solve(c.center, &mut ws)?;
-        let d = ws.distances();
-        for (cj, &o) in centers.iter().enumerate() {
-            layout[ci * m + cj] = d[o as usize] as f32;
-        }
-        let center = norm.positions[c.center as usize];
-        let radius = c
-            .vertices
-            .iter()
-            .map(|&v| d[v as usize])
-            .filter(|x| x.is_finite())
-            .fold(0.0f64, f64::max);
-        let comp_area: f64 = c.vertices.iter().map(|&v| areas[v as usize]).sum();
-        let h_max = c
-            .vertices
-            .iter()
-            .map(|&v| response[v as usize])
-            .filter(|h| h.is_finite())
-            .fold(f64::NEG_INFINITY, f64::max);
-
-        let mut desc = [0f32; DIM];
-        let mut mean_normal = Vector3::zeros();
-        let mut mean = Vector3::zeros();
-        for &v in &c.vertices {
-            let a = areas[v as usize];
-            mean_normal += normals[v as usize] * a;
-            mean += norm.positions[v as usize].coords * a;
-        }
-        if mean_normal.norm() > 0.0 {
-            mean_normal.normalize_mut();
-        }
-        if comp_area > 0.0 {
-            mean /= comp_area;
-        }
-        let mut cov = Matrix3::zeros();
-        for &v in &c.vertices {
-            let a = areas[v as usize] as f32;
-            let w = a as f64;
-            let vi = v as usize;
-            // Harris response, log scale relative to the component's maximum
-            let h = response[vi];
-            let b = if h.is_finite() && h > 0.0 && h_max > 0.0 {
-                bin((h / h_max).log10(), -4.0, 0.0, 8)
-            } else {
-                0
-            };
-            desc[b] += a;
-            // geodesic distance from the centre, relative to the radius
-            let dg = d[vi];
-            if dg.is_finite() && radius > 0.0 {
-                desc[8 + bin(dg / radius, 0.0, 1.0, 8)] += a;
-                if dg > 0.2 * radius {
-                    let ratio = (norm.positions[vi] - center).norm() / dg;
-                    desc[16 + bin(ratio, 0.0, 1.0 + 1e-9, 8)] += a;
+    let mut parts: Vec<Part> = det
+        .components
+        .iter()
+        .map(|c| Part {
+            center: c.center,
+            vertices: c.vertices.clone(),
+            keypoints: c.keypoints.len(),
+            level: 0,
+        })
+        .collect();
+    if n > 0 {
+        for (l, &radius) in params.levels.iter().enumerate() {
+            let mut nearest = vec![f64::INFINITY; n];
+            let mut chosen = 0;
+            let mut candidates = det.keypoints.iter().copied();
+            while chosen < params.patches_per_level {
+                // keypoints best first, then the vertex farthest from every chosen centre
+                let next = candidates
+                    .by_ref()
+                    .find(|&k| nearest[k as usize] >= radius)
+                    .or_else(|| {
+                        let (v, d) = nearest
+                            .iter()
+                            .enumerate()
+                            .max_by(|a, b| a.1.total_cmp(b.1).then(b.0.cmp(&a.0)))?;
+                        (*d >= radius).then_some(v as u32)
+                    });
+                let Some(c) = next else { break };
+                let d = fronts.get(c)?;
+                for (m, &x) in nearest.iter_mut().zip(d) {
+                    *m = m.min(x);
+                }
+                nearest[c as usize] = 0.0;
+                let vertices: Vec<u32> =
+                    (0..n as u32).filter(|&v| d[v as usize] <= radius).collect();
+                chosen += 1;
+                if vertices.len() >= 3 {
+                    parts.push(Part {
+                        center: c,
+                        keypoints: count_keypoints(&vertices),
+                        vertices,
+                        level: (l + 1).min(254) as u8,
+                    });
                 }
             }
-            // normal turning
-            let ang = normals[vi].dot(&mean_normal).clamp(-1.0, 1.0).acos();
-            desc[24 + bin(ang, 0.0, std::f64::consts::PI + 1e-9, 4)] += a;
-            let p = norm.positions[vi].coords - mean;
-            cov += p * p.transpose() * w;
         }
-        normalise(&mut desc[0..8]);
-        normalise(&mut desc[8..16]);
-        normalise(&mut desc[16..24]);
-        normalise(&mut desc[24..28]);
-        let compact = if comp_area > 0.0 && radius > 0.0 {
-            (radius / comp_area.sqrt()).ln() - (1.0 / std::f64::consts::PI.sqrt()).ln()
-        } else {
-            0.0
-        };
-        let mut eig: Vec<f64> = cov.symmetric_eigenvalues().iter().copied().collect();
-        eig.sort_by(|a, b| b.total_cmp(a));
-        let (r21, r31) = if eig[0] > 0.0 {
-            (eig[1].max(0.0) / eig[0], eig[2].max(0.0) / eig[0])
-        } else {
-            (0.0, 0.0)
-        };
-        let density = if !c.vertices.is_empty() {
-            (c.keypoints.len() as f64 / c.vertices.len() as f64) / (total_keypoints / referenced)
-        } else {
-            0.0
-        };
-        desc[28] = SCALAR_WEIGHT * (compact.clamp(-2.0, 2.0) / 2.0) as f32;
-        desc[29] = SCALAR_WEIGHT * r21 as f32;
-        desc[30] = SCALAR_WEIGHT * r31 as f32;
-        desc[31] = SCALAR_WEIGHT * (density / (1.0 + density)) as f32;
+        if params.whole {
+            // centre: the vertex nearest the area-weighted centroid
+            let centroid = surface
+                .mesh
+                .positions
+                .iter()
+                .zip(&surface.areas)
+                .fold(Vector3::zeros(), |acc, (p, a)| acc + p.coords * *a)
+                / total.max(f64::MIN_POSITIVE);
+            let center = (0..n)
+                .min_by(|&a, &b| {
+                    let da = (surface.mesh.positions[a].coords - centroid).norm_squared();
+                    let db = (surface.mesh.positions[b].coords - centroid).norm_squared();
+                    da.total_cmp(&db).then(a.cmp(&b))
+                })
+                .unwrap_or(0) as u32;
+            parts.push(Part {
+                center,
+                vertices: (0..n as u32).collect(),
+                keypoints: det.keypoints.len(),
+                level: (params.levels.len() + 1).min(255) as u8,
+            });
+        }
+    }
+
+    let m = parts.len();
+    let whole_level = (params.levels.len() + 1).min(255) as u8;
+    let mut layout = vec![0f32; m * m];
+    let mut components = Vec::with_capacity(m);
+    for (ci, p) in parts.iter().enumerate() {
+        let d = fronts.get(p.center)?;
+        for (cj, o) in parts.iter().enumerate() {
+            layout[ci * m + cj] = d[o.center as usize] as f32;
+        }
+        let (descriptor, radius) = describe_part(&surface, p, d);
         components.push(ComponentDescription {
-            descriptor: desc,
-            center: c.center,
-            area: c.area,
-            keypoints: c.keypoints.len(),
+            descriptor,
+            center: p.center,
+            area: if total > 0.0 {
+                p.vertices
+                    .iter()
+                    .map(|&v| surface.areas[v as usize])
+                    .sum::<f64>()
+                    / total
+            } else {
+                0.0
+            },
+            keypoints: p.keypoints,
             radius,
+            level: p.level,
+            vertices: p.vertices.clone(),
         });
     }
     // symmetrise the layout; disconnected pairs get twice the largest finite distance
@@ -326,7 +514,11 @@ pub fn describe_with(
     for i in 0..m {
         for j in 0..i {
             let (a, b) = (layout[i * m + j], layout[j * m + i]);
-            let v = if a.is_finite() && b.is_finite() {
+            let v = if params.whole
+                && (parts[i].level == whole_level || parts[j].level == whole_level)
+            {
+                NO_DISTANCE
+            } else if a.is_finite() && b.is_finite() {
                 0.5 * (a + b)
             } else {
                 2.0 * finite_max
@@ -337,6 +529,136 @@ pub fn describe_with(
         layout[i * m + i] = 0.0;
     }
     Ok(ShapeDescription { components, layout })
+}
+
+/// The descriptor of one part and its geodesic radius (`d`: distances from its centre).
+fn describe_part(s: &Surface, part: &Part, d: &[f64]) -> (Descriptor, f64) {
+    let pos = &s.mesh.positions;
+    let vs = &part.vertices;
+    let center = pos[part.center as usize];
+    let radius = vs
+        .iter()
+        .map(|&v| d[v as usize])
+        .filter(|x| x.is_finite())
+        .fold(0.0f64, f64::max);
+    let comp_area: f64 = vs.iter().map(|&v| s.areas[v as usize]).sum();
+    let h_max = vs
+        .iter()
+        .map(|&v| s.response[v as usize])
+        .filter(|h| h.is_finite())
+        .fold(f64::NEG_INFINITY, f64::max);
+
+    let mut desc = [0f32; DIM];
+    let mut mean_normal = Vector3::zeros();
+    let mut mean = Vector3::zeros();
+    for &v in vs {
+        let a = s.areas[v as usize];
+        mean_normal += s.normals[v as usize] * a;
+        mean += pos[v as usize].coords * a;
+    }
+    if mean_normal.norm() > 0.0 {
+        mean_normal.normalize_mut();
+    }
+    if comp_area > 0.0 {
+        mean /= comp_area;
+    }
+    let mut cov = Matrix3::zeros();
+    for &v in vs {
+        let vi = v as usize;
+        let w = s.areas[vi];
+        let a = w as f32;
+        // Harris response, log scale relative to the part's maximum
+        let h = s.response[vi];
+        let b = if h.is_finite() && h > 0.0 && h_max > 0.0 {
+            bin((h / h_max).log10(), -4.0, 0.0, 8)
+        } else {
+            0
+        };
+        desc[b] += a;
+        // geodesic distance from the centre, relative to the radius
+        let dg = d[vi];
+        if dg.is_finite() && radius > 0.0 {
+            desc[8 + bin(dg / radius, 0.0, 1.0, 8)] += a;
+            if dg > 0.2 * radius {
+                let ratio = (pos[vi] - center).norm() / dg;
+                desc[16 + bin(ratio, 0.0, 1.0 + 1e-9, 8)] += a;
+            }
+        }
+        // normal turning
+        let ang = s.normals[vi].dot(&mean_normal).clamp(-1.0, 1.0).acos();
+        desc[24 + bin(ang, 0.0, std::f64::consts::PI + 1e-9, 4)] += a;
+        let p = pos[vi].coords - mean;
+        cov += p * p.transpose() * w;
+        // curvature: shape index, and curvedness relative to the part's size
+        let si = s.shape_index[vi];
+        if si.is_finite() {
+            desc[32 + bin(si, -1.0, 1.0 + 1e-9, 8)] += a;
+        }
+        let c = s.curvedness[vi] * radius;
+        if c.is_finite() {
+            let b = if c > 0.0 {
+                bin(c.log10(), -2.0, 1.0, 8)
+            } else {
+                0
+            };
+            desc[40 + b] += a;
+        }
+    }
+    // pair statistics over area-sampled point pairs (vertices stand for their areas)
+    if comp_area > 0.0 && radius > 0.0 && vs.len() >= 2 {
+        let mut cdf = Vec::with_capacity(vs.len());
+        let mut acc = 0.0;
+        for &v in vs {
+            acc += s.areas[v as usize];
+            cdf.push(acc);
+        }
+        let mut rng = ChaCha8Rng::seed_from_u64(((part.center as u64) << 8) | part.level as u64);
+        let draw = |rng: &mut ChaCha8Rng| {
+            let x = rng.random::<f64>() * acc;
+            vs[cdf.partition_point(|&c| c < x).min(vs.len() - 1)] as usize
+        };
+        for _ in 0..PAIRS {
+            let (i, j) = (draw(&mut rng), draw(&mut rng));
+            let e = (pos[i] - pos[j]).norm() / (2.0 * radius);
+            desc[48 + bin(e, 0.0, 1.0 + 1e-9, 8)] += 1.0;
+            let ang = s.normals[i].dot(&s.normals[j]).clamp(-1.0, 1.0).acos();
+            desc[56 + bin(ang, 0.0, std::f64::consts::PI + 1e-9, 8)] += 1.0;
+        }
+    }
+    for (lo, hi) in [
+        (0, 8),
+        (8, 16),
+        (16, 24),
+        (24, 28),
+        (32, 40),
+        (40, 48),
+        (48, 56),
+        (56, 64),
+    ] {
+        normalise(&mut desc[lo..hi]);
+    }
+    let compact = if comp_area > 0.0 && radius > 0.0 {
+        (radius / comp_area.sqrt()).ln() - (1.0 / std::f64::consts::PI.sqrt()).ln()
+    } else {
+        0.0
+    };
+    let mut eig: Vec<f64> = cov.symmetric_eigenvalues().iter().copied().collect();
+    eig.sort_by(|a, b| b.total_cmp(a));
+    let (r21, r31) = if eig[0] > 0.0 {
+        (eig[1].max(0.0) / eig[0], eig[2].max(0.0) / eig[0])
+    } else {
+        (0.0, 0.0)
+    };
+    let density = if !vs.is_empty() {
+        (part.keypoints as f64 / vs.len() as f64) / (s.total_keypoints / s.vertices)
+    } else {
+        0.0
+    };
+    desc[28] = SCALAR_WEIGHT * (compact.clamp(-2.0, 2.0) / 2.0) as f32;
+    desc[29] = SCALAR_WEIGHT * r21 as f32;
+    desc[30] = SCALAR_WEIGHT * r31 as f32;
+    desc[31] = SCALAR_WEIGHT * (density / (1.0 + density)) as f32;
+    (desc, radius)
 }
 
 /// Euclidean distance between two descriptors.

@@ -3,7 +3,9 @@
 use std::path::{Path, PathBuf};
 
 use keycomp_components::{DetectParams, detect};
-use keycomp_describe::{DIM, describe, distance};
+use keycomp_describe::{
+    DIM, DescribeParams, NO_DISTANCE, Units, describe, describe_with, distance,
+};
 use keycomp_mesh::{Mesh, Vector3, geometry, read_mesh, synth};
 use nalgebra::{Rotation3, Unit};
 
@@ -12,25 +14,118 @@ fn histograms_sum_to_one_and_layout_is_symmetric() {
     let mesh = synth::textured_protrusion_sphere(6);
     let det = detect(&mesh, &DetectParams::default()).expect("detect");
     let d = describe(&mesh, &det).expect("describe");
-    assert_eq!(d.components.len(), det.components.len());
+    let params = DescribeParams::default();
+    let k = det.components.len();
+    let whole = params.levels.len() as u8 + 1;
+    // key-components first, in detection order, then patches by level, then the whole surface
+    assert!(d.components.len() > k + params.levels.len());
+    for (i, c) in d.components.iter().enumerate() {
+        if i < k {
+            assert_eq!((c.level, c.center), (0, det.components[i].center));
+        }
+    }
+    assert!(d.components.windows(2).all(|w| w[0].level <= w[1].level));
+    let last = d.components.last().expect("parts");
+    assert_eq!(last.level, whole);
+    assert!((last.area - 1.0).abs() < 1e-9);
     for c in &d.components {
-        for (lo, hi) in [(0, 8), (8, 16), (16, 24), (24, 28)] {
+        for (lo, hi) in [
+            (0, 8),
+            (8, 16),
+            (16, 24),
+            (24, 28),
+            (32, 40),
+            (40, 48),
+            (48, 56),
+            (56, 64),
+        ] {
             let s: f32 = c.descriptor[lo..hi].iter().sum();
             assert!((s - 1.0).abs() < 1e-4, "bins {lo}..{hi} sum to {s}");
         }
         assert!(c.descriptor.iter().all(|x| x.is_finite() && *x >= 0.0));
         assert!(c.radius > 0.0);
+        if (1..whole).contains(&c.level) {
+            // a patch reaches no farther than its level's radius
+            assert!(c.radius <= params.levels[c.level as usize - 1] + 1e-9);
+        }
     }
     let m = d.components.len();
     for i in 0..m {
         assert_eq!(d.layout_distance(i, i), 0.0);
         for j in 0..m {
             assert_eq!(d.layout_distance(i, j), d.layout_distance(j, i));
-            if i != j {
+            let (a, b) = (&d.components[i], &d.components[j]);
+            if a.level == whole || b.level == whole {
+                if i != j {
+                    assert_eq!(d.layout_distance(i, j), NO_DISTANCE);
+                }
+            } else if a.center != b.center {
                 assert!(d.layout_distance(i, j) > 0.0);
             }
         }
     }
+}
+
+#[test]
+fn a_shape_without_keypoints_still_gets_parts() {
+    let mesh = synth::textured_protrusion_sphere(6);
+    let mut det = detect(&mesh, &DetectParams::default()).expect("detect");
+    det.components.clear();
+    det.keypoints.clear();
+    let d = describe(&mesh, &det).expect("describe");
+    let params = DescribeParams::default();
+    // every level has at least one patch (centres by farthest-point sampling), plus the whole
+    for level in 1..=params.levels.len() as u8 + 1 {
+        assert!(
+            d.components.iter().any(|c| c.level == level),
+            "no part at level {level}"
+        );
+    }
+}
+
+#[test]
+fn file_units_equal_scale_free_when_the_unit_is_the_shapes_own_size() {
+    let mesh = synth::textured_protrusion_sphere(6);
+    let det = detect(&mesh, &DetectParams::default()).expect("detect");
+    let free = describe(&mesh, &det).expect("describe");
+    let length = geometry::total_area(&mesh).sqrt();
+    let units = DescribeParams {
+        units: Units::File { length },
+        ..DescribeParams::default()
+    };
+    let file = describe_with(&mesh, &det, &units).expect("describe");
+    assert_eq!(free.components.len(), file.components.len());
+    for (a, b) in free.components.iter().zip(&file.components) {
+        assert_eq!((a.center, a.level), (b.center, b.level));
+        assert!(distance(&a.descriptor, &b.descriptor) < 1e-3);
+    }
+    // a unit twice as long: patches of the same level cover four times the relative area
+    let twice = DescribeParams {
+        units: Units::File {
+            length: 2.0 * length,
+        },
+        ..DescribeParams::default()
+    };
+    let big = describe_with(&mesh, &det, &twice).expect("describe");
+    let first = |d: &keycomp_describe::ShapeDescription| {
+        d.components
+            .iter()
+            .find(|c| c.level == 1)
+            .map(|c| c.area)
+            .expect("a level-1 patch")
+    };
+    assert!(first(&big) > 2.0 * first(&free));
+    assert!(
+        describe_with(
+            &mesh,
+            &det,
+            &DescribeParams {
+                units: Units::File { length: 0.0 },
+                ..DescribeParams::default()
+            }
+        )
+        .is_err()
+    );
 }
 
 #[test]
@@ -50,11 +145,11 @@ fn descriptors_are_invariant_to_rigid_motion_and_scale() {
     let b = describe(&moved, &detect(&moved, &p).expect("detect")).expect("describe");
     assert_eq!(a.components.len(), b.components.len());
     for ca in &a.components {
-        // the same component (same centre vertex) has nearly the same descriptor
+        // the same part (same centre vertex and level) has nearly the same descriptor
         let cb = b
             .components
             .iter()
-            .find(|c| c.center == ca.center)
+            .find(|c| c.center == ca.center && c.level == ca.level)
             .expect("same centre after the motion");
         let d = distance(&ca.descriptor, &cb.descriptor);
         assert!(d < 1e-3, "descriptor moved by {d}");

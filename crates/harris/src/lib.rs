@@ -84,6 +84,23 @@ pub fn harris_response(mesh: &Mesh, topo: &Topology, params: &HarrisParams) -> V
     }
 }
 
+/// Steps 1–3 for every vertex: its local frame and fitted quadratic (unit-area units), `None`
+/// where [`harris_response`] gives NaN; the response is
+/// [`response_from_coefficients`]`(&fit.coefficients, params.k)`. For callers that need more of
+/// the fit than the response (e.g. curvatures). Parallel over vertices; never panics (a
+/// mismatched topology or a degenerate mesh gives `None` everywhere).
+pub fn local_fits(mesh: &Mesh, topo: &Topology, params: &HarrisParams) -> Vec<Option<LocalFit>> {
+    let n = mesh.num_vertices();
+    if topo.num_vertices() != n {
+        return vec![None; n];
+    }
+    let edges = response::edge_lengths(mesh, topo, params);
+    match response::Context::new(mesh, topo, params, &edges) {
+        Some(ctx) => response::all_fits(&ctx),
+        None => vec![None; n],
+    }
+}
+
 /// Steps 1–3 for a single vertex: its neighbourhood size, local frame and fitted coefficients
 /// (unit-area units), or `None` where [`harris_response`] gives NaN. For inspection and tests;
 /// allocates O(|V|) scratch per call.

@@ -290,6 +290,25 @@ pub(crate) fn vertex_response(ctx: &Context, v: VertexId, s: &mut Scratch) -> f6
     }
 }
 
+/// Every vertex's local fit (`None` where it has no response), in parallel over vertices.
+pub(crate) fn all_fits(ctx: &Context) -> Vec<Option<LocalFit>> {
+    let n = ctx.positions.len();
+    let mut out = vec![None; n];
+    if n == 0 {
+        return out;
+    }
+    let chunk = (n / (rayon::current_num_threads() * 16)).max(256);
+    out.par_chunks_mut(chunk)
+        .enumerate()
+        .for_each(|(ci, slice)| {
+            let mut s = Scratch::new(n);
+            for (i, r) in slice.iter_mut().enumerate() {
+                *r = local_fit_with(ctx, (ci * chunk + i) as VertexId, &mut s);
+            }
+        });
+    out
+}
+
 /// All responses, in parallel over vertices (rayon); each worker chunk owns one [`Scratch`].
 pub(crate) fn all_responses(ctx: &Context) -> Vec<f64> {
     let n = ctx.positions.len();

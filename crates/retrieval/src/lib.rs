@@ -13,20 +13,24 @@
 //!    the query centres, `dq(i, j)`, and between the target centres, `dt(a, b)`, must agree up to
 //!    one scale factor s for the whole shape (a fragment is normalised to unit area on its own,
 //!    so its lengths differ from the full shape's by an unknown factor). s is the median of
-//!    `dt/dq` over all kept pairs of pairs; a pair of pairs agrees when
+//!    `dt/dq` over all kept pairs of pairs with a distance on both sides (the whole-surface
+//!    part has none); a pair of pairs agrees when
 //!    `|ln(dt / (s·dq))| ≤ ln(`[`MatchParams::layout_tolerance`]`)`. While some match disagrees
-//!    with more than half of the others, the one with most disagreements (then the larger
-//!    descriptor distance) is dropped. With fewer than three matches there is nothing to check.
-//! 4. Score: the kept similarities summed and divided by the number of query components, in
-//!    [0, 1]: 1 when every query component has an identical partner in a consistent layout.
-//!    Dividing by the query's count (not the target's) lets a fragment match the whole shape it
-//!    was cut from.
+//!    with more than half of the others it can be compared with, the one with most
+//!    disagreements (then the larger descriptor distance) is dropped. With fewer than three
+//!    matches there is nothing to check.
+//! 4. Score: the kept similarities, each times its query part's weight, summed and divided by
+//!    the sum of the weights of all query parts, in [0, 1]: 1 when every query part has an
+//!    identical partner in a consistent layout. Dividing by the query's parts (not the
+//!    target's) lets a fragment match the whole shape it was cut from. [`match_shapes`] weighs
+//!    every part 1; [`rank`] weighs a part by its inverse frequency in the index
+//!    ([`idf_weights`]), so parts that many shapes have count less.
 //!
 //! Cost: O(m³) for m components (m is small, typically under 20), O(k²) for k matches.
 
 mod query;
 
-pub use query::{CANDIDATES_PER_COMPONENT, Ranked, rank};
+pub use query::{CANDIDATES_PER_COMPONENT, Ranked, idf_weights, rank};
 
 use keycomp_describe::{Descriptor, distance};
 use pathfinding::kuhn_munkres::kuhn_munkres;
@@ -37,20 +41,23 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct MatchParams {
-    /// Descriptor distance at which similarity reaches 0 (default 0.6: on TOSCA cats the median
-    /// distance of non-corresponding components is 0.56, of corresponding ones 0.24). Lowering
-    /// it makes matching stricter.
+    /// Descriptor distance at which similarity reaches 0 (default 0.8). Lowering it makes
+    /// matching stricter.
     pub max_distance: f32,
     /// Largest factor by which two layout distances may disagree after scaling (default 1.5).
     /// Raising it tolerates more deformation and worse detections; 1 demands exact agreement.
     pub layout_tolerance: f64,
+    /// Weighs each query part by its inverse frequency in the index when ranking ([`rank`]):
+    /// parts with close counterparts in many shapes count less (default true).
+    pub idf: bool,
 }
 
 impl Default for MatchParams {
     fn default() -> Self {
         MatchParams {
-            max_distance: 0.6,
+            max_distance: 0.8,
             layout_tolerance: 1.5,
+            idf: true,
         }
     }
 }
@@ -109,9 +116,29 @@ fn median(mut v: Vec<f64>) -> Option<f64> {
     })
 }
 
-/// Matches the components of `query` to those of `target` (see the module documentation).
+/// Matches the components of `query` to those of `target` (see the module documentation),
+/// every query component weighing the same.
 pub fn match_shapes(query: ShapeView, target: ShapeView, params: &MatchParams) -> ShapeMatch {
+    match_weighted(query, target, params, &[])
+}
+
+/// [`match_shapes`] with a weight per query component (`weights[i] ≥ 0`; missing or
+/// non-finite weights count 1): the assignment maximises the weighted similarity and the
+/// score is the weighted mean of the kept similarities over all query components.
+pub fn match_weighted(
+    query: ShapeView,
+    target: ShapeView,
+    params: &MatchParams,
+    weights: &[f64],
+) -> ShapeMatch {
     let (mq, mt) = (query.descriptors.len(), target.descriptors.len());
+    let weight_of = |i: usize| {
+        weights
+            .get(i)
+            .copied()
+            .filter(|w| w.is_finite() && *w >= 0.0)
+            .unwrap_or(1.0)
+    };
     let empty = ShapeMatch {
         matches: Vec::new(),
         score: 0.0,
@@ -126,10 +153,10 @@ pub fn match_shapes(query: ShapeView, target: ShapeView, params: &MatchParams) -
         .map(|k| distance(&query.descriptors[k / mt], &target.descriptors[k % mt]))
         .collect();
     const SCALE: f64 = 1e6;
-    let weight = |dd: f32| -> i64 {
-        let w = (1.0 - dd / max_d).max(0.0);
+    let weight = |i: usize, dd: f32| -> i64 {
+        let w = (1.0 - dd / max_d).max(0.0) as f64 * weight_of(i);
         if w.is_finite() {
-            (w as f64 * SCALE).round() as i64
+            (w * SCALE).round() as i64
         } else {
             0
         }
@@ -141,7 +168,7 @@ pub fn match_shapes(query: ShapeView, target: ShapeView, params: &MatchParams) -
     for r in 0..rows {
         for c in 0..cols {
             let (i, a) = if transpose { (c, r) } else { (r, c) };
-            values.push(weight(d[i * mt + a]));
+            values.push(weight(i, d[i * mt + a]));
         }
     }
     let Ok(matrix) = Matrix::from_vec(rows, cols, values) else {
@@ -183,17 +210,18 @@ pub fn match_shapes(query: ShapeView, target: ShapeView, params: &MatchParams) -
         }
         let Some(s) = median(ratios) else { break };
         scale = Some(s);
-        let bad: Vec<usize> = (0..k)
+        // per match: (pairs that disagree, pairs with a distance on both sides)
+        let counts: Vec<(usize, usize)> = (0..k)
             .map(|a| {
                 (0..k)
                     .filter(|&b| b != a)
-                    .filter(|&b| match ratio(&matches[a], &matches[b]) {
-                        Some(r) => (r / s).ln().abs() > tol,
-                        None => true,
+                    .filter_map(|b| ratio(&matches[a], &matches[b]))
+                    .fold((0, 0), |(bad, all), r| {
+                        (bad + usize::from((r / s).ln().abs() > tol), all + 1)
                     })
-                    .count()
             })
             .collect();
+        let bad: Vec<usize> = counts.iter().map(|c| c.0).collect();
         let worst = (0..k).max_by(|&a, &b| {
             bad[a].cmp(&bad[b]).then(
                 matches[a]
@@ -203,18 +231,23 @@ pub fn match_shapes(query: ShapeView, target: ShapeView, params: &MatchParams) -
             )
         });
         match worst {
-            Some(w) if 2 * bad[w] > k - 1 => {
+            Some(w) if 2 * bad[w] > counts[w].1 => {
                 matches.remove(w);
                 rejected += 1;
             }
             _ => break,
         }
     }
-    let score = matches
-        .iter()
-        .map(|m| (1.0 - (m.distance / max_d) as f64).max(0.0))
-        .sum::<f64>()
-        / mq as f64;
+    let total: f64 = (0..mq).map(weight_of).sum();
+    let score = if total > 0.0 {
+        matches
+            .iter()
+            .map(|m| (1.0 - (m.distance / max_d) as f64).max(0.0) * weight_of(m.query))
+            .sum::<f64>()
+            / total
+    } else {
+        0.0
+    };
     ShapeMatch {
         matches,
         score,
