@@ -54,7 +54,7 @@ use keycomp_bench::retrieval::partial::{PartialKind, cut_fragment};
 use keycomp_bench::retrieval::{complete_ranking, pr_svg, rank_by_distance};
 use keycomp_bench::svg::Curve;
 use keycomp_components::DetectParams;
-use keycomp_describe::DIM;
+use keycomp_describe::{DIM, DescribeParams, Units};
 use keycomp_index::{ContentHash, ShapeRecord};
 use keycomp_mesh::{Mesh, read_mesh};
 use keycomp_retrieval::{MatchParams, rank};
@@ -65,7 +65,10 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::detect::DetectArgs;
-use crate::index_cmd::{Reader, open_writer, progress, record_of};
+use crate::index_cmd::{
+    Profile, Reader, areas_of, open_writer, progress, record_of, unit_from_areas,
+};
+use crate::match_cmd::analyse;
 use crate::output;
 
 pub const EXAMPLES: &str = "Examples:
@@ -125,6 +128,30 @@ pub struct Args {
     /// Cache of detections [default: OUT/cache].
     #[arg(long, value_name = "DIR")]
     pub cache: Option<PathBuf>,
+    /// Length unit of key-component description: scale-free (each mesh and fragment scaled to
+    /// unit area) or file (one unit for every shape and fragment, the square root of the
+    /// collection's median area: fragments keep their source's scale), as `keycomp index add
+    /// --units` records it.
+    #[arg(long, default_value = "scale-free", value_parser = ["scale-free", "file"], value_name = "MODE")]
+    pub units: String,
+    /// Ablation: patch radii of the description (comma-separated; 'none' for no patches)
+    /// [default: the description's default levels].
+    #[arg(long, value_name = "R,R,...")]
+    pub levels: Option<String>,
+    /// Ablation: most patches per level [default: the description's].
+    #[arg(long, value_name = "N")]
+    pub patches: Option<usize>,
+    /// Ablation: no whole-surface part.
+    #[arg(long)]
+    pub no_whole: bool,
+    /// Ablation: every query part weighs the same (no inverse-frequency weights).
+    #[arg(long)]
+    pub no_idf: bool,
+    /// Also measure partial repeatability: for every fragment, the source's parts lying mostly
+    /// inside it against the fragment's own parts (analyses every source and fragment once
+    /// more, with their vertex sets).
+    #[arg(long)]
+    pub repeatability: bool,
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
@@ -207,7 +234,7 @@ struct RecordCache {
 }
 
 impl RecordCache {
-    fn new(dir: PathBuf, params: &DetectParams) -> RecordCache {
+    fn new(dir: PathBuf, params: &Profile) -> RecordCache {
         let exe = std::env::current_exe()
             .ok()
             .and_then(|p| fs::read(p).ok())
@@ -241,7 +268,7 @@ impl RecordCache {
         &self,
         path: &Path,
         hash: ContentHash,
-        params: &DetectParams,
+        params: &Profile,
     ) -> Result<(ShapeRecord<DIM>, bool)> {
         let entry = self.path(&hash);
         let cached = entry
@@ -432,6 +459,8 @@ struct Results {
     seed: u64,
     fraction_range: (f64, f64),
     detect_params: DetectParams,
+    describe_params: DescribeParams,
+    match_params: MatchParams,
     d2_params: D2Params,
     fpfh_params: FpfhParams,
     /// The radius rule of each FPFH baseline (for "FPFH BoW units", the collection's median
@@ -441,6 +470,70 @@ struct Results {
     shapes_without_components: Vec<String>,
     components_per_shape: f64,
     query_sets: Vec<QuerySet>,
+    /// Partial repeatability per query kind and third of the kept-area range (with
+    /// `--repeatability`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    partial_repeatability: Vec<RepeatabilityRow>,
+}
+
+/// One row of the partial-repeatability table: the parts of every fragment of one kind and
+/// kept-area bin pooled (see [`Repeatability`]).
+#[derive(Debug, Serialize)]
+struct RepeatabilityRow {
+    kind: &'static str,
+    area: (f64, f64),
+    fragments: usize,
+    kc_parts: usize,
+    kc_overlap: f64,
+    patch_parts: usize,
+    patch_overlap: f64,
+}
+
+fn repeatability_rows(
+    all: &[(&'static str, f64, Repeatability)],
+    range: (f64, f64),
+) -> Vec<RepeatabilityRow> {
+    let mut rows = Vec::new();
+    let kinds: Vec<&'static str> = {
+        let mut k: Vec<_> = all.iter().map(|r| r.0).collect();
+        k.dedup();
+        k
+    };
+    let step = (range.1 - range.0) / 3.0;
+    for kind in kinds {
+        for b in 0..3 {
+            let lo = range.0 + step * b as f64;
+            let hi = if b == 2 { f64::INFINITY } else { lo + step };
+            let lo = if b == 0 { f64::NEG_INFINITY } else { lo };
+            let sel: Vec<&Repeatability> = all
+                .iter()
+                .filter(|r| r.0 == kind && r.1 >= lo && r.1 < hi)
+                .map(|r| &r.2)
+                .collect();
+            if sel.is_empty() {
+                continue;
+            }
+            let kc_parts: usize = sel.iter().map(|r| r.kc_parts).sum();
+            let patch_parts: usize = sel.iter().map(|r| r.patch_parts).sum();
+            let pooled = |f: &dyn Fn(&Repeatability) -> f64, n: usize| {
+                if n > 0 {
+                    sel.iter().map(|r| f(r)).sum::<f64>() / n as f64
+                } else {
+                    0.0
+                }
+            };
+            rows.push(RepeatabilityRow {
+                kind,
+                area: (range.0 + step * b as f64, range.0 + step * (b + 1) as f64),
+                fragments: sel.len(),
+                kc_parts,
+                kc_overlap: pooled(&|r| r.kc_overlap * r.kc_parts as f64, kc_parts),
+                patch_parts,
+                patch_overlap: pooled(&|r| r.patch_overlap * r.patch_parts as f64, patch_parts),
+            });
+        }
+    }
+    rows
 }
 
 fn stem(p: &Path) -> String {
@@ -490,23 +583,100 @@ fn summarize_method(
     }
 }
 
+/// Partial repeatability of one fragment: for key-components (level 0) and for patches (levels
+/// 1 and up), the source's parts with at least half of their area inside the fragment, and the
+/// mean over them of the best overlap (area IoU on the fragment, as in the repeatability
+/// benchmark) between the part restricted to the fragment and a part the fragment's own
+/// analysis finds (of the same kind: key-component or patch, any level).
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+struct Repeatability {
+    kc_overlap: f64,
+    kc_parts: usize,
+    patch_overlap: f64,
+    patch_parts: usize,
+}
+
+fn partial_repeatability(
+    source: &Path,
+    fragment: &Path,
+    original: &[u32],
+    profile: &Profile,
+) -> Result<Repeatability> {
+    let s = analyse(source, profile)?;
+    let f = analyse(fragment, profile)?;
+    let src_areas = keycomp_mesh::geometry::vertex_areas(&s.mesh);
+    let frag_areas = keycomp_mesh::geometry::vertex_areas(&f.mesh);
+    let mut to_frag = vec![u32::MAX; s.mesh.num_vertices()];
+    for (i, &o) in original.iter().enumerate() {
+        if let Some(t) = to_frag.get_mut(o as usize) {
+            *t = i as u32;
+        }
+    }
+    let group = |patches: bool| -> (f64, usize) {
+        let mine: Vec<&[u32]> = f
+            .description
+            .components
+            .iter()
+            .filter(|c| (c.level > 0) == patches)
+            .map(|c| c.vertices.as_slice())
+            .collect();
+        let (mut sum, mut count) = (0.0, 0);
+        for c in s
+            .description
+            .components
+            .iter()
+            .filter(|c| (c.level > 0) == patches)
+        {
+            if c.area >= 0.999 {
+                continue; // the whole surface
+            }
+            let total: f64 = c.vertices.iter().map(|&v| src_areas[v as usize]).sum();
+            let inside: Vec<u32> = c
+                .vertices
+                .iter()
+                .map(|&v| to_frag[v as usize])
+                .filter(|&t| t != u32::MAX)
+                .collect();
+            let kept: f64 = c
+                .vertices
+                .iter()
+                .filter(|&&v| to_frag[v as usize] != u32::MAX)
+                .map(|&v| src_areas[v as usize])
+                .sum();
+            if total <= 0.0 || kept < 0.5 * total {
+                continue;
+            }
+            let best = mine
+                .iter()
+                .map(|m| keycomp_bench::overlap(&frag_areas, &inside, m))
+                .fold(0.0, f64::max);
+            sum += best;
+            count += 1;
+        }
+        (if count > 0 { sum / count as f64 } else { 0.0 }, count)
+    };
+    let (kc_overlap, kc_parts) = group(false);
+    let (patch_overlap, patch_parts) = group(true);
+    Ok(Repeatability {
+        kc_overlap,
+        kc_parts,
+        patch_overlap,
+        patch_parts,
+    })
+}
+
 /// Key-component ranking of the collection for one query (indices into the collection).
 fn kc_ranking(
     reader: &Reader,
     record: &ShapeRecord<DIM>,
     index_of: &HashMap<PathBuf, usize>,
+    match_params: &MatchParams,
 ) -> Result<Vec<usize>> {
     let descs: Vec<[f32; DIM]> = record.components.iter().map(|c| c.descriptor).collect();
     if descs.is_empty() {
         return Ok(Vec::new());
     }
-    let ranked = rank(
-        reader,
-        &descs,
-        &record.layout,
-        index_of.len(),
-        &MatchParams::default(),
-    )?;
+    let ranked = rank(reader, &descs, &record.layout, index_of.len(), match_params)?;
     Ok(ranked
         .iter()
         .filter_map(|r| index_of.get(&r.path).copied())
@@ -561,7 +731,33 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
     let n = files.len();
     let detect = detect_args(args.detect.as_deref())?;
     // exactly what `keycomp index add` uses with these options
-    let params = detect.retrieval_params();
+    let mut describe = DescribeParams::default();
+    if args.units == "file" {
+        describe.units = Units::File {
+            length: unit_from_areas(areas_of(&files))?,
+        };
+    }
+    if let Some(l) = &args.levels {
+        describe.levels = if l.trim() == "none" {
+            Vec::new()
+        } else {
+            l.split(',')
+                .map(|x| x.trim().parse::<f64>())
+                .collect::<Result<_, _>>()
+                .map_err(|_| {
+                    anyhow::anyhow!("--levels: expected radii like 0.1,0.2 or 'none', got '{l}'")
+                })?
+        };
+    }
+    if let Some(p) = args.patches {
+        describe.patches_per_level = p;
+    }
+    describe.whole = !args.no_whole;
+    let match_params = MatchParams {
+        idf: !args.no_idf,
+        ..MatchParams::default()
+    };
+    let params = Profile::with(&detect.retrieval_params(), describe);
     let d2_params = D2Params {
         pairs: args.d2_pairs,
         seed: sub_seed(args.seed, "d2", 0),
@@ -681,7 +877,7 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
     let mut sets = Vec::new();
     let whole: Vec<QueryResult> = (0..n)
         .map(|i| -> Result<QueryResult> {
-            let returned = kc_ranking(&reader, &records[i], &index_of)?;
+            let returned = kc_ranking(&reader, &records[i], &index_of, &match_params)?;
             let kc_order = complete_ranking(
                 &returned,
                 n,
@@ -743,6 +939,7 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
         .flat_map(|&k| (0..per_kind).map(move |q| (k, q)))
         .collect();
     let bar = progress(jobs.len() as u64, "partial queries");
+    let mut repeatability: Vec<(&'static str, f64, Repeatability)> = Vec::new();
     type Fragment = (
         usize,
         f64,
@@ -751,6 +948,7 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
         Result<ShapeRecord<DIM>>,
         Vec<Vec<f64>>,
         PathBuf,
+        Option<Repeatability>,
     );
     let fragments: Vec<Result<Fragment>> = jobs
         .par_iter()
@@ -780,6 +978,16 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
                 let rec = ContentHash::of_file(&path)
                     .map_err(anyhow::Error::from)
                     .and_then(|hash| cache.record(&path, hash, &params).map(|(r, _)| r));
+                let rep = if args.repeatability {
+                    Some(partial_repeatability(
+                        &files[src],
+                        &path,
+                        &frag.original,
+                        &params,
+                    )?)
+                } else {
+                    None
+                };
                 Ok((
                     src,
                     target,
@@ -788,6 +996,7 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
                     rec,
                     descriptors,
                     path,
+                    rep,
                 ))
             })();
             bar.inc(1);
@@ -797,9 +1006,16 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
     bar.finish_and_clear();
     let mut by_kind: BTreeMap<PartialKind, Vec<QueryResult>> = BTreeMap::new();
     for ((kind, q), f) in jobs.iter().zip(fragments) {
-        let (src, target, fraction, detail, rec, descriptors, path) = f?;
+        let (src, target, fraction, detail, rec, descriptors, path, rep) = f?;
+        if let Some(r) = rep {
+            repeatability.push((kind.name(), fraction, r));
+        }
         let (returned, components, error) = match &rec {
-            Ok(r) => (kc_ranking(&reader, r, &index_of)?, r.components.len(), None),
+            Ok(r) => (
+                kc_ranking(&reader, r, &index_of, &match_params)?,
+                r.components.len(),
+                None,
+            ),
             Err(e) => (Vec::new(), 0, Some(format!("{e:#}"))),
         };
         let kc_order = complete_ranking(
@@ -866,7 +1082,9 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
         classes: class_counts,
         seed: args.seed,
         fraction_range: args.area,
-        detect_params: params,
+        detect_params: params.detect,
+        describe_params: params.describe,
+        match_params,
         d2_params,
         fpfh_params,
         fpfh_scales: fpfh_scales.iter().map(|&(_, k, s)| (k, s)).collect(),
@@ -879,6 +1097,7 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
         components_per_shape: records.iter().map(|r| r.components.len()).sum::<usize>() as f64
             / n as f64,
         query_sets: sets,
+        partial_repeatability: repeatability_rows(&repeatability, args.area),
     };
     let json = serde_json::to_vec_pretty(&results).context("cannot serialise the results")?;
     write_atomic(&args.out.join("results.json"), &json)?;
@@ -1076,6 +1295,30 @@ fn report_text(
                 num(m.summary.mean.ft),
                 num(m.summary.mean.ap),
                 rank(m.mean_source_rank),
+            )?;
+        }
+    }
+    if !r.partial_repeatability.is_empty() {
+        writeln!(
+            s,
+            "\npartial repeatability (source parts with at least half their area in the fragment; mean best area overlap with the fragment's own parts):\n"
+        )?;
+        writeln!(
+            s,
+            "| kind | kept area | fragments | key-components | KC overlap | patches | patch overlap |\n|---|---|---:|---:|---:|---:|---:|"
+        )?;
+        for row in &r.partial_repeatability {
+            writeln!(
+                s,
+                "| {} | {:.0}-{:.0} % | {} | {} | {:.3} | {} | {:.3} |",
+                row.kind,
+                row.area.0 * 100.0,
+                row.area.1 * 100.0,
+                row.fragments,
+                row.kc_parts,
+                row.kc_overlap,
+                row.patch_parts,
+                row.patch_overlap
             )?;
         }
     }

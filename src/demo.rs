@@ -9,7 +9,6 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use keycomp_bench::retrieval::partial::{PartialKind, cut_fragment};
-use keycomp_components::DetectParams;
 use keycomp_mesh::geometry;
 use keycomp_retrieval::{MatchParams, Ranked, rank};
 use keycomp_shapes::{Class, GenerateParams, Shape};
@@ -17,7 +16,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use crate::detect::DetectArgs;
-use crate::index_cmd::{open_reader_for_query, open_writer, progress, records_of_new};
+use crate::index_cmd::{Profile, open_reader_for_query, open_writer, progress, records_of_new};
 use crate::match_cmd::{Analysed, analyse};
 use crate::{output, report};
 
@@ -85,7 +84,7 @@ fn class_of(path: &Path) -> Option<Class> {
 /// Indexes `files` into `index` exactly as `keycomp index add` does ([`open_writer`], which
 /// refuses an index made with other parameters, [`record_of`], skipping files already indexed
 /// with the same content). Returns (added or replaced, unchanged).
-fn index_files(index: &Path, files: &[PathBuf], params: &DetectParams) -> Result<(usize, usize)> {
+fn index_files(index: &Path, files: &[PathBuf], params: &Profile) -> Result<(usize, usize)> {
     let mut writer = open_writer(index, params)?;
     let bar = progress(files.len() as u64, "indexing");
     let results = records_of_new(&writer, files, params, &bar);
@@ -113,7 +112,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
         bail!("--per-class must be at least 1");
     }
     let t_all = Instant::now();
-    let params = args.detect.retrieval_params();
+    let params = Profile::current(&args.detect.retrieval_params());
     let gen_params = GenerateParams {
         seed: args.shape_seed,
         target_vertices: args.vertices,

@@ -11,6 +11,7 @@ use keycomp_describe::{DIM, DescribeParams};
 use keycomp_index::{
     ComponentRecord, ContentHash, IndexReader, IndexWriter, ShapeRecord, canonical_path,
 };
+use keycomp_mesh::read_mesh;
 use rayon::prelude::*;
 
 use crate::detect::DetectArgs;
@@ -35,11 +36,16 @@ pub struct Profile {
 }
 
 impl Profile {
-    /// The profile of descriptors this keycomp makes with `params`.
+    /// The profile of descriptors this keycomp makes with `params` and the default description.
     pub fn current(params: &DetectParams) -> Profile {
+        Profile::with(params, DescribeParams::default())
+    }
+
+    /// The profile of descriptors this keycomp makes with `params` and `describe`.
+    pub fn with(params: &DetectParams, describe: DescribeParams) -> Profile {
         Profile {
             descriptor_version: keycomp_describe::DESCRIPTOR_VERSION,
-            describe: DescribeParams::default(),
+            describe,
             detect: params.clone(),
         }
     }
@@ -50,11 +56,11 @@ impl Profile {
     }
 }
 
-/// Opens (or creates) the index at `dir` for adding shapes detected with `params`: an empty
-/// index takes their profile, an index made another way is refused with a clear error.
-pub fn open_writer(dir: &Path, params: &DetectParams) -> Result<Writer> {
+/// Opens (or creates) the index at `dir` for adding shapes analysed with `profile`: an empty
+/// index takes it, an index made another way is refused with a clear error.
+pub fn open_writer(dir: &Path, profile: &Profile) -> Result<Writer> {
     let mut w = Writer::create_or_open(dir)?;
-    w.ensure_profile(&Profile::current(params).to_text()?)?;
+    w.ensure_profile(&profile.to_text()?)?;
     Ok(w)
 }
 
@@ -63,7 +69,7 @@ pub fn open_writer(dir: &Path, params: &DetectParams) -> Result<Writer> {
 /// when they agree with the index's; anything else (another descriptor version, other
 /// parameters, an index without a profile) is a clear error, since its descriptors would not
 /// be comparable.
-pub fn open_reader_for_query(dir: &Path, args: &DetectArgs) -> Result<(Reader, DetectParams)> {
+pub fn open_reader_for_query(dir: &Path, args: &DetectArgs) -> Result<(Reader, Profile)> {
     let reader = Reader::open(dir)?;
     let mine = Profile::current(&args.retrieval_params());
     let text = reader.profile();
@@ -71,7 +77,7 @@ pub fn open_reader_for_query(dir: &Path, args: &DetectArgs) -> Result<(Reader, D
         "rebuild it (delete the directory and `keycomp index add` again) or use another --index";
     if text.is_empty() {
         if reader.shapes().is_empty() {
-            return Ok((reader, mine.detect));
+            return Ok((reader, mine));
         }
         bail!(
             "index {} has no profile (written by an older keycomp): its descriptors may not be comparable with this keycomp's; {rebuild}",
@@ -84,7 +90,7 @@ pub fn open_reader_for_query(dir: &Path, args: &DetectArgs) -> Result<(Reader, D
             dir.display()
         )
     })?;
-    if theirs.descriptor_version != mine.descriptor_version || theirs.describe != mine.describe {
+    if theirs.descriptor_version != mine.descriptor_version {
         bail!(
             "index {} holds descriptors of version {} ({:?}), this keycomp makes version {} ({:?}); {rebuild}",
             dir.display(),
@@ -95,7 +101,7 @@ pub fn open_reader_for_query(dir: &Path, args: &DetectArgs) -> Result<(Reader, D
         );
     }
     if theirs.detect == mine.detect || args.is_default() {
-        return Ok((reader, theirs.detect));
+        return Ok((reader, theirs));
     }
     bail!(
         "index {} was built with other detection parameters than the query's options give: index {}, query {}; drop the options to use the index's",
@@ -103,6 +109,69 @@ pub fn open_reader_for_query(dir: &Path, args: &DetectArgs) -> Result<(Reader, D
         serde_json::to_string(&theirs.detect)?,
         serde_json::to_string(&mine.detect)?
     )
+}
+
+/// The length unit options of the commands that describe shapes (`index add`, `match`).
+#[derive(Debug, Clone, clap::Args)]
+pub struct UnitsArgs {
+    /// Length unit of the description: scale-free (every mesh scaled to unit area on its own,
+    /// the default) or file (the files' own units, for a collection and queries in the same
+    /// real units, e.g. CAD in mm or calibrated scans: a fragment keeps its source's scale).
+    /// Recorded in the index's profile; queries use the index's.
+    #[arg(long, value_name = "MODE", value_parser = ["scale-free", "file"])]
+    pub units: Option<String>,
+    /// With --units file: the length unit, in file units [default: the square root of the
+    /// median surface area of the shapes added (`index add` into a new index) or of the second
+    /// shape (`match`)].
+    #[arg(long, value_name = "L", requires = "units")]
+    pub unit_length: Option<f64>,
+}
+
+impl UnitsArgs {
+    /// Whether file units were asked for.
+    pub fn file(&self) -> bool {
+        self.units.as_deref() == Some("file")
+    }
+
+    /// The description parameters these options give, `sizes` standing for the shapes whose
+    /// median area sets the default unit (called only with --units file and no --unit-length).
+    pub fn describe_params(&self, sizes: impl FnOnce() -> Vec<f64>) -> Result<DescribeParams> {
+        if !self.file() {
+            if self.unit_length.is_some() {
+                bail!("--unit-length needs --units file");
+            }
+            return Ok(DescribeParams::default());
+        }
+        let length = match self.unit_length {
+            Some(l) if l.is_finite() && l > 0.0 => l,
+            Some(l) => bail!("--unit-length must be a positive number of file units, got {l}"),
+            None => unit_from_areas(sizes())?,
+        };
+        Ok(DescribeParams {
+            units: keycomp_describe::Units::File { length },
+            ..DescribeParams::default()
+        })
+    }
+}
+
+/// The length unit of a collection in file units: the square root of its median surface area.
+pub fn unit_from_areas(mut areas: Vec<f64>) -> Result<f64> {
+    areas.retain(|a| a.is_finite() && *a > 0.0);
+    if areas.is_empty() {
+        bail!("--units file: no shape with a positive surface area to choose the length unit from");
+    }
+    areas.sort_by(f64::total_cmp);
+    Ok(areas[areas.len() / 2].sqrt())
+}
+
+/// Surface areas of the readable meshes among `files` (unreadable ones are left out; they fail
+/// with a clear message when analysed).
+pub fn areas_of(files: &[PathBuf]) -> Vec<f64> {
+    files
+        .par_iter()
+        .filter_map(|p| read_mesh(p).ok())
+        .map(|m| keycomp_mesh::geometry::total_area(&m.mesh))
+        .collect()
 }
 
 /// Shapes described before each commit to disk.
@@ -147,6 +216,8 @@ pub struct AddArgs {
     pub dir: DirArgs,
     #[command(flatten)]
     pub detect: DetectArgs,
+    #[command(flatten)]
+    pub units: UnitsArgs,
 }
 
 /// Arguments of `keycomp index remove`.
@@ -196,12 +267,8 @@ fn collect(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
 }
 
 /// Reads, detects and describes one file, whose content hash is `hash`, into an index record.
-pub fn record_of(
-    path: &Path,
-    hash: ContentHash,
-    params: &DetectParams,
-) -> Result<ShapeRecord<DIM>> {
-    let a = analyse(path, params)?;
+pub fn record_of(path: &Path, hash: ContentHash, profile: &Profile) -> Result<ShapeRecord<DIM>> {
+    let a = analyse(path, profile)?;
     Ok(ShapeRecord {
         path: path.to_path_buf(),
         canonical_path: canonical_path(path),
@@ -230,7 +297,7 @@ pub fn record_of(
 pub fn records_of_new(
     writer: &Writer,
     files: &[PathBuf],
-    params: &DetectParams,
+    profile: &Profile,
     bar: &ProgressBar,
 ) -> Vec<Option<Result<ShapeRecord<DIM>>>> {
     let known: Vec<Option<ContentHash>> = files
@@ -244,7 +311,7 @@ pub fn records_of_new(
             let r = match ContentHash::of_file(p) {
                 Err(e) => Some(Err(e.into())),
                 Ok(hash) if old == Some(hash) => None,
-                Ok(hash) => Some(record_of(p, hash, params)),
+                Ok(hash) => Some(record_of(p, hash, profile)),
             };
             bar.inc(1);
             r
@@ -280,12 +347,32 @@ fn add(args: AddArgs) -> Result<ExitCode> {
     if files.is_empty() {
         bail!("no mesh files (.off, .obj, .ply, .stl) found in the paths given");
     }
-    let mut writer = open_writer(&args.dir.index, &params)?;
+    // an index that has a profile keeps its description (its length unit included)
+    let existing = match Reader::open(&args.dir.index) {
+        Ok(r) if !r.profile().is_empty() => serde_json::from_str::<Profile>(r.profile()).ok(),
+        _ => None,
+    };
+    let describe = match existing {
+        Some(p) => {
+            let file = matches!(p.describe.units, keycomp_describe::Units::File { .. });
+            if args.units.units.is_some() && file != args.units.file() {
+                bail!(
+                    "index {} describes shapes in {} units; drop --units or use another --index",
+                    args.dir.index.display(),
+                    if file { "file" } else { "scale-free" }
+                );
+            }
+            p.describe
+        }
+        None => args.units.describe_params(|| areas_of(&files))?,
+    };
+    let profile = Profile::with(&params, describe);
+    let mut writer = open_writer(&args.dir.index, &profile)?;
     let bar = progress(files.len() as u64, "indexing");
     let (mut added, mut replaced, mut unchanged) = (0usize, 0usize, 0usize);
     let mut failed: Vec<(PathBuf, String)> = Vec::new();
     for chunk in files.chunks(BATCH) {
-        let results = records_of_new(&writer, chunk, &params, &bar);
+        let results = records_of_new(&writer, chunk, &profile, &bar);
         let mut records = Vec::new();
         for (p, r) in chunk.iter().cloned().zip(results) {
             match r {

@@ -6,13 +6,14 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
-use keycomp_components::{DetectParams, Detection, detect};
-use keycomp_describe::{ShapeDescription, describe};
+use keycomp_components::{Detection, detect};
+use keycomp_describe::{ShapeDescription, describe_with};
 use keycomp_mesh::{Mesh, read_mesh};
 use keycomp_retrieval::{MatchParams, ShapeView, match_shapes};
 use serde::Serialize;
 
 use crate::detect::DetectArgs;
+use crate::index_cmd::{Profile, UnitsArgs};
 use crate::{colors, output};
 
 pub const EXAMPLES: &str = "Examples:
@@ -29,6 +30,8 @@ pub struct Args {
     pub b: PathBuf,
     #[command(flatten)]
     pub detect: DetectArgs,
+    #[command(flatten)]
+    pub units: UnitsArgs,
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
@@ -49,12 +52,12 @@ pub struct Analysed {
 }
 
 /// Reads, detects and describes one mesh file.
-pub fn analyse(path: &Path, params: &DetectParams) -> Result<Analysed> {
+pub fn analyse(path: &Path, profile: &Profile) -> Result<Analysed> {
     let t = Instant::now();
     let mesh = read_mesh(path)?.mesh;
-    let detection = detect(&mesh, params)
+    let detection = detect(&mesh, &profile.detect)
         .with_context(|| format!("{}: key-component detection failed", path.display()))?;
-    let description = describe(&mesh, &detection)
+    let description = describe_with(&mesh, &detection, &profile.describe)
         .with_context(|| format!("{}: describing key-components failed", path.display()))?;
     Ok(Analysed {
         mesh,
@@ -141,7 +144,12 @@ fn pair_colors(
 }
 
 pub fn run(args: Args) -> Result<ExitCode> {
-    let params = args.detect.retrieval_params();
+    let describe = args.units.describe_params(|| {
+        read_mesh(&args.b)
+            .map(|m| vec![keycomp_mesh::geometry::total_area(&m.mesh)])
+            .unwrap_or_default()
+    })?;
+    let params = Profile::with(&args.detect.retrieval_params(), describe);
     let (a, b) = rayon::join(|| analyse(&args.a, &params), || analyse(&args.b, &params));
     let (a, b) = (a?, b?);
     let t = Instant::now();
