@@ -184,7 +184,7 @@ pub enum IndexCommand {
     #[command(
         after_help = "Examples:\n  keycomp index add ../shared/data/tosca\n  keycomp index add a.off b.ply --index my-index"
     )]
-    Add(AddArgs),
+    Add(Box<AddArgs>),
     /// List the indexed shapes.
     List(DirArgs),
     /// Counts and sizes.
@@ -333,7 +333,7 @@ pub fn progress(len: u64, what: &str) -> ProgressBar {
 
 pub fn run(cmd: IndexCommand) -> Result<ExitCode> {
     match cmd {
-        IndexCommand::Add(a) => add(a),
+        IndexCommand::Add(a) => add(*a),
         IndexCommand::List(d) => list(d),
         IndexCommand::Stats(d) => stats(d),
         IndexCommand::Remove(r) => remove(r),
