@@ -86,7 +86,8 @@ D2 shape distribution, and by an FPFH bag of words (3,000 sampled points, FPFH a
 each mesh's own area ('FPFH BoW', scale-free) and once with the collection's median area
 ('FPFH BoW units', file units: fragments keep their source's scale). Prints NN, FT, ST, E,
 DCG and mAP (Princeton Shape Benchmark definitions) and, for partial queries, the mean rank of
-the source shape. Writes
+the source shape and how often it is first, among the first three, and ahead of every shape
+of another class ('source ahead': `--partial plane --area 0.5,0.5` measures halves). Writes
 OUT/results.json, OUT/pr-<queries>.svg (precision-recall), OUT/fragments/*.off and OUT/index;
 detections are cached in OUT/cache.";
 
@@ -144,9 +145,14 @@ pub struct Args {
     /// Ablation: no whole-surface part.
     #[arg(long)]
     pub no_whole: bool,
-    /// Ablation: every query part weighs the same (no inverse-frequency weights).
+    /// Ablation: weigh query parts by their inverse frequency in the index
+    /// (`MatchParams::idf`).
     #[arg(long)]
-    pub no_idf: bool,
+    pub idf: bool,
+    /// Ablation: leave out parts that reach a mesh's boundary
+    /// (`DescribeParams::complete_only`).
+    #[arg(long)]
+    pub complete_only: bool,
     /// Also measure partial repeatability: for every fragment, the source's parts lying mostly
     /// inside it against the fragment's own parts (analyses every source and fragment once
     /// more, with their vertex sets).
@@ -367,6 +373,10 @@ struct MethodResult {
     /// 1-based rank of the source shape (partial queries).
     #[serde(skip_serializing_if = "Option::is_none")]
     source_rank: Option<usize>,
+    /// Whether the source shape is ranked ahead of every shape of another class (partial
+    /// queries): with a score per shape, the source scores higher than any of them.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    source_ahead: Option<bool>,
     /// The first five results (file stems).
     top: Vec<String>,
     nn: Option<f64>,
@@ -425,6 +435,12 @@ struct MethodSummary {
     /// Partial queries whose source shape is ranked first.
     #[serde(skip_serializing_if = "Option::is_none")]
     source_first: Option<usize>,
+    /// Partial queries whose source shape is among the first three.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    source_top3: Option<usize>,
+    /// Partial queries whose source shape is ranked ahead of every shape of another class.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    source_ahead: Option<usize>,
 }
 
 #[derive(Debug, Serialize)]
@@ -556,6 +572,14 @@ fn method_result(
     MethodResult {
         returned,
         source_rank: source.and_then(|s| order.iter().position(|&j| j == s).map(|p| p + 1)),
+        source_ahead: source.map(|s| {
+            let at = order.iter().position(|&j| j == s).unwrap_or(usize::MAX);
+            let other = order
+                .iter()
+                .position(|&j| classes[j] != class)
+                .unwrap_or(usize::MAX);
+            at < other
+        }),
         top: order.iter().take(5).map(|&j| names[j].clone()).collect(),
         nn: scores.as_ref().map(|s| s.nn),
         ft: scores.as_ref().map(|s| s.ft),
@@ -580,6 +604,13 @@ fn summarize_method(
         mean_source_rank: (!ranks.is_empty())
             .then(|| ranks.iter().sum::<usize>() as f64 / ranks.len() as f64),
         source_first: (!ranks.is_empty()).then(|| ranks.iter().filter(|&&r| r == 1).count()),
+        source_top3: (!ranks.is_empty()).then(|| ranks.iter().filter(|&&r| r <= 3).count()),
+        source_ahead: (!ranks.is_empty()).then(|| {
+            results
+                .iter()
+                .filter(|r| pick(r).source_ahead == Some(true))
+                .count()
+        }),
     }
 }
 
@@ -753,8 +784,9 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
         describe.patches_per_level = p;
     }
     describe.whole = !args.no_whole;
+    describe.complete_only = args.complete_only;
     let match_params = MatchParams {
-        idf: !args.no_idf,
+        idf: args.idf,
         ..MatchParams::default()
     };
     let params = Profile::with(&detect.retrieval_params(), describe);
@@ -1217,11 +1249,11 @@ fn report_text(
     )?;
     writeln!(
         s,
-        "| queries | n | area | method | NN | FT | ST | E | DCG | mAP | source rank | source 1st | no result |"
+        "| queries | n | area | method | NN | FT | ST | E | DCG | mAP | source rank | source 1st | source top 3 | source ahead | no result |"
     )?;
     writeln!(
         s,
-        "|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+        "|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
     )?;
     for set in &r.query_sets {
         let mut rows = vec![("key-components", &set.key_components)];
@@ -1235,7 +1267,7 @@ fn report_text(
             let x = &m.summary.mean;
             writeln!(
                 s,
-                "| {} | {} | {} | {label} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {} | {} | {} |",
+                "| {} | {} | {} | {label} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {} | {} | {} | {} | {} |",
                 set.name,
                 m.summary.queries,
                 set.mean_fraction
@@ -1249,6 +1281,8 @@ fn report_text(
                 m.mean_source_rank
                     .map_or("-".to_string(), |v| format!("{v:.1}")),
                 m.source_first.map_or("-".to_string(), |v| format!("{v}")),
+                m.source_top3.map_or("-".to_string(), |v| format!("{v}")),
+                m.source_ahead.map_or("-".to_string(), |v| format!("{v}")),
                 if label == "random" {
                     "-".to_string()
                 } else {

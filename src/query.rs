@@ -71,6 +71,9 @@ struct Report {
     query: String,
     components: usize,
     results: Vec<ResultJson>,
+    /// Indexed shapes that were not candidates (none of their parts is among the nearest of a
+    /// query part), so they are not ranked.
+    not_returned: Vec<String>,
     timings_ms: Timings,
 }
 
@@ -85,6 +88,18 @@ pub fn run(args: Args) -> Result<ExitCode> {
     let (descs, layout) = q.view();
     let ranked = rank(&reader, &descs, layout, args.k, &MatchParams::default())?;
     let search_ms = t.elapsed().as_secs_f64() * 1e3;
+    // shapes that were not candidates (only listed when the ranking is not cut by -k)
+    let not_returned: Vec<String> = if ranked.len() < args.k {
+        let seen: std::collections::BTreeSet<_> = ranked.iter().map(|r| r.id).collect();
+        reader
+            .shapes()
+            .iter()
+            .filter(|s| !seen.contains(&s.id))
+            .map(|s| s.record.path.display().to_string())
+            .collect()
+    } else {
+        Vec::new()
+    };
     let total_ms = t0.elapsed().as_secs_f64() * 1e3;
     let report = match &args.report {
         Some(dir) => {
@@ -109,6 +124,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
             eprintln!("report: {}", page.display()); // stdout is the JSON
         }
         output::print_json(&Report {
+            not_returned: not_returned.clone(),
             query: args.mesh.display().to_string(),
             components: descs.len(),
             results: ranked
@@ -141,7 +157,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
         let mut s = String::new();
         writeln!(
             s,
-            "{}: {} key-components; {} shapes in {}",
+            "{}: {} parts; {} shapes in {}",
             args.mesh.display(),
             descs.len(),
             reader.shapes().len(),
@@ -150,7 +166,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
         if descs.is_empty() {
             writeln!(
                 s,
-                "no key-components found in the query: nothing to match (try --preset kc2, or a lower --n)"
+                "no parts found in the query (an empty mesh?): nothing to match"
             )?;
         }
         writeln!(s, "{:>4}  {:>6}  {:>7}  path", "rank", "score", "matched")?;
@@ -163,6 +179,19 @@ pub fn run(args: Args) -> Result<ExitCode> {
                 r.result.matches.len(),
                 r.path.display()
             )?;
+        }
+        if !not_returned.is_empty() {
+            writeln!(
+                s,
+                "not returned ({} shapes: none of their parts is among the nearest of a query part):",
+                not_returned.len()
+            )?;
+            for p in not_returned.iter().take(20) {
+                writeln!(s, "        {p}")?;
+            }
+            if not_returned.len() > 20 {
+                writeln!(s, "        … and {} more", not_returned.len() - 20)?;
+            }
         }
         writeln!(
             s,

@@ -261,4 +261,70 @@ fn index_profile_keeps_descriptors_comparable() {
     let o = keycomp(&["query", s(&shape), "--index", s(&bare)]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("has no profile"), "{}", stderr(&o));
+
+    // an index of 32-value descriptors (descriptor version 2) is refused with what to do
+    let old = dir.path().join("old");
+    let mut w = keycomp_index::IndexWriter::<32>::create_or_open(&old).expect("writer");
+    w.add_batch(keycomp_index::synthetic::records(3, 0..2))
+        .expect("add");
+    drop(w);
+    for args in [
+        vec!["query", s(&shape), "--index", s(&old)],
+        vec!["index", "add", s(&other), "--index", s(&old)],
+    ] {
+        let o = keycomp(&args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}");
+        let e = stderr(&o);
+        assert!(e.contains("32 values") && e.contains("rebuild"), "{e}");
+    }
+}
+
+/// `--units file` is recorded in the profile: later adds keep the index's unit, asking for
+/// scale-free units there is refused, and queries use the index's unit.
+#[test]
+fn file_units_are_recorded_in_the_index() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let index = dir.path().join("idx");
+    let shape = dir.path().join("textured.off");
+    write_off(&synth::textured_protrusion_sphere(6), &shape).expect("w");
+    let other = dir.path().join("torus.off");
+    write_off(&synth::torus(2.0, 0.5, 120, 60), &other).expect("w");
+    let o = keycomp(&[
+        "index",
+        "add",
+        s(&shape),
+        "--index",
+        s(&index),
+        "--units",
+        "file",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let profile = |i: &Path| -> Value {
+        let r = keycomp_index::IndexReader::<{ keycomp_describe::DIM }>::open(i).expect("open");
+        serde_json::from_str(r.profile()).expect("profile")
+    };
+    let units = profile(&index)["describe"]["units"].clone();
+    assert_eq!(units["kind"], "file", "{units}");
+    // the unit is the square root of the only shape's area
+    let area = keycomp_mesh::geometry::total_area(&synth::textured_protrusion_sphere(6));
+    assert!((units["length"].as_f64().expect("length") - area.sqrt()).abs() < 1e-9);
+    let o = keycomp(&[
+        "index",
+        "add",
+        s(&other),
+        "--index",
+        s(&index),
+        "--units",
+        "scale-free",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("file units"), "{}", stderr(&o));
+    let o = keycomp(&["index", "add", s(&other), "--index", s(&index)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(profile(&index)["describe"]["units"], units);
+    let o = keycomp(&["query", s(&shape), "--index", s(&index), "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: Value = serde_json::from_slice(&o.stdout).expect("json");
+    assert!((v["results"][0]["score"].as_f64().expect("score") - 1.0).abs() < 1e-6);
+    assert_eq!(v["results"].as_array().expect("results").len(), 2);
 }

@@ -22,12 +22,17 @@
 //!    centroid, unless [`DescribeParams::whole`] is off. Its layout distances are
 //!    [`NO_DISTANCE`].
 //!
+//! With [`DescribeParams::complete_only`] (off by default: it made fragment retrieval worse,
+//! BENCHMARKS.md), parts that reach the mesh's boundary are left out (patch centres that give
+//! one are skipped, at most twice the level's budget of fronts is spent), unless the mesh has
+//! no complete part at all.
+//!
 //! So every shape with at least one vertex has parts, whether or not the detection found
 //! key-components, and a shape has tens of them instead of the detection's 0–5.
 //!
 //! # The descriptor, bin by bin
 //!
-//! Every entry is invariant to rigid motion and to uniform scale: histograms are of ratios, and
+//! Every entry but entry 31 in file units is invariant to rigid motion and to uniform scale: histograms are of ratios, and
 //! the scalars are ratios of lengths or areas measured on the part itself, never on the whole
 //! shape. Histograms are area-weighted (barycentric vertex areas; pairs are drawn by area) and
 //! each sums to 1, so they do not depend on the tessellation's density.
@@ -41,7 +46,7 @@
 //! | 28 | `ln(radius / √area)` of the part, shifted by `ln(1/√π)` (0 for a flat disc) | elongation along the surface |
 //! | 29 | `λ2/λ1` of the part's vertex covariance | in-space elongation |
 //! | 30 | `λ3/λ1` of the same | flatness (0 flat, 1 ball-like) |
-//! | 31 | keypoint density: `(K_c/V_c)/(K/V)` mapped by `x/(1+x)` | how much of the shape's saliency the part gathers, relative to the shape's average |
+//! | 31 | scale-free: keypoint density `(K_c/V_c)/(K/V)` mapped by `x/(1+x)`; file units: [`SIZE_WEIGHT`]` · ln(radius)`, the radius in the length unit | how much of the shape's saliency the part gathers; in file units, how big the part is (the one entry that is not scale-invariant, since sizes are comparable there) |
 //! | 32–39 | shape index `(2/π)·atan2(κ1 + κ2, κ1 − κ2)` (Koenderink & van Doorn 1992), principal curvatures from the Harris quadratic fit (the same fit as bins 0–7) oriented by the vertex normal, 8 equal bins over [−1, 1] | the local surface type: cup, rut, saddle, ridge, cap |
 //! | 40–47 | curvedness `√((κ1² + κ2²)/2)` times the part's radius, `log10` in 8 equal bins over [−2, 1] | how curved the surface is relative to the part's size |
 //! | 48–55 | Euclidean distance of [`PAIRS`] area-sampled point pairs over twice the radius, 8 equal bins over [0, 1] (D2 of Osada et al. 2002, inside the part) | the part's extent in space: compact or spread |
@@ -125,6 +130,10 @@ pub struct DescribeParams {
     pub whole: bool,
     /// Length unit. Default [`Units::ScaleFree`].
     pub units: Units,
+    /// Leaves out parts that reach the mesh's boundary, unless no part is complete (see
+    /// *Parts*). Default false: on SHREC'07 Watertight fragments it lowered NN from 0.625 to
+    /// 0.550 (balls), 0.825 to 0.730 (plane cuts) and 0.395 to 0.280 (scans) (BENCHMARKS.md).
+    pub complete_only: bool,
 }
 
 impl Default for DescribeParams {
@@ -136,6 +145,7 @@ impl Default for DescribeParams {
             patches_per_level: 6,
             whole: true,
             units: Units::ScaleFree,
+            complete_only: false,
         }
     }
 }
@@ -145,6 +155,10 @@ pub const DIM: usize = 64;
 
 /// Weight of the four scalar entries (28–31) relative to histogram bins.
 pub const SCALAR_WEIGHT: f32 = 0.5;
+
+/// Weight of entry 31 in file units, `ln(radius)`: parts of neighbouring levels (radii 1.5
+/// apart) differ there by 0.3, half of a typical distance between unrelated parts.
+pub const SIZE_WEIGHT: f32 = 0.75;
 
 /// Random point pairs drawn per part for the pair histograms (bins 48–63).
 pub const PAIRS: usize = 512;
@@ -265,6 +279,8 @@ struct Surface {
     normals: Vec<Vector3<f64>>,
     total_keypoints: f64,
     vertices: f64,
+    /// Entry 31 holds the part's size in the length unit instead of its keypoint density.
+    file_units: bool,
 }
 
 /// Principal curvatures of a fit, oriented by `normal` (κ1 ≥ κ2), in the fit's units.
@@ -393,7 +409,12 @@ pub fn describe_with(
         normals,
         total_keypoints: det.keypoints.len().max(1) as f64,
         vertices: n.max(1) as f64,
+        file_units: matches!(params.units, Units::File { .. }),
     };
+    let boundary: Vec<bool> = (0..n as u32).map(|v| topo.is_boundary(v)).collect();
+    let clipped = |vs: &[u32]| params.complete_only && vs.iter().any(|&v| boundary[v as usize]);
+    // parts reaching the boundary, used only when the mesh has no complete part
+    let mut clipped_parts: Vec<Part> = Vec::new();
     let total: f64 = surface.areas.iter().sum();
     let mut fronts = Fronts {
         solver: &solver,
@@ -406,49 +427,65 @@ pub fn describe_with(
     }
     let count_keypoints = |vs: &[u32]| vs.iter().filter(|&&v| is_keypoint[v as usize]).count();
 
-    let mut parts: Vec<Part> = det
-        .components
-        .iter()
-        .map(|c| Part {
+    let mut parts: Vec<Part> = Vec::new();
+    for c in &det.components {
+        let p = Part {
             center: c.center,
             vertices: c.vertices.clone(),
             keypoints: c.keypoints.len(),
             level: 0,
-        })
-        .collect();
+        };
+        if clipped(&p.vertices) {
+            clipped_parts.push(p);
+        } else {
+            parts.push(p);
+        }
+    }
     if n > 0 {
         for (l, &radius) in params.levels.iter().enumerate() {
             let mut nearest = vec![f64::INFINITY; n];
-            let mut chosen = 0;
+            let mut rejected = vec![false; n];
+            let (mut chosen, mut fronts_run) = (0, 0);
             let mut candidates = det.keypoints.iter().copied();
-            while chosen < params.patches_per_level {
+            // a front per candidate centre; clipped candidates cost one too, so they are bounded
+            while chosen < params.patches_per_level && fronts_run < 2 * params.patches_per_level {
                 // keypoints best first, then the vertex farthest from every chosen centre
                 let next = candidates
                     .by_ref()
-                    .find(|&k| nearest[k as usize] >= radius)
+                    .find(|&k| nearest[k as usize] >= radius && !rejected[k as usize])
                     .or_else(|| {
                         let (v, d) = nearest
                             .iter()
                             .enumerate()
+                            .filter(|(v, _)| !rejected[*v])
                             .max_by(|a, b| a.1.total_cmp(b.1).then(b.0.cmp(&a.0)))?;
                         (*d >= radius).then_some(v as u32)
                     });
                 let Some(c) = next else { break };
+                fronts_run += 1;
                 let d = fronts.get(c)?;
+                let vertices: Vec<u32> =
+                    (0..n as u32).filter(|&v| d[v as usize] <= radius).collect();
+                let part = Part {
+                    center: c,
+                    keypoints: count_keypoints(&vertices),
+                    vertices,
+                    level: (l + 1).min(254) as u8,
+                };
+                if clipped(&part.vertices) {
+                    rejected[c as usize] = true;
+                    if part.vertices.len() >= 3 {
+                        clipped_parts.push(part);
+                    }
+                    continue;
+                }
                 for (m, &x) in nearest.iter_mut().zip(d) {
                     *m = m.min(x);
                 }
                 nearest[c as usize] = 0.0;
-                let vertices: Vec<u32> =
-                    (0..n as u32).filter(|&v| d[v as usize] <= radius).collect();
                 chosen += 1;
-                if vertices.len() >= 3 {
-                    parts.push(Part {
-                        center: c,
-                        keypoints: count_keypoints(&vertices),
-                        vertices,
-                        level: (l + 1).min(254) as u8,
-                    });
+                if part.vertices.len() >= 3 {
+                    parts.push(part);
                 }
             }
         }
@@ -468,13 +505,23 @@ pub fn describe_with(
                     da.total_cmp(&db).then(a.cmp(&b))
                 })
                 .unwrap_or(0) as u32;
-            parts.push(Part {
+            let whole = Part {
                 center,
                 vertices: (0..n as u32).collect(),
                 keypoints: det.keypoints.len(),
                 level: (params.levels.len() + 1).min(255) as u8,
-            });
+            };
+            if clipped(&whole.vertices) {
+                clipped_parts.push(whole);
+            } else {
+                parts.push(whole);
+            }
         }
+    }
+    if parts.is_empty() {
+        // nothing complete (an open surface, a small fragment): describe what there is
+        clipped_parts.sort_by_key(|p| p.level);
+        parts = clipped_parts;
     }
 
     let m = parts.len();
@@ -657,7 +704,11 @@ fn describe_part(s: &Surface, part: &Part, d: &[f64]) -> (Descriptor, f64) {
     desc[28] = SCALAR_WEIGHT * (compact.clamp(-2.0, 2.0) / 2.0) as f32;
     desc[29] = SCALAR_WEIGHT * r21 as f32;
     desc[30] = SCALAR_WEIGHT * r31 as f32;
-    desc[31] = SCALAR_WEIGHT * (density / (1.0 + density)) as f32;
+    desc[31] = if s.file_units {
+        SIZE_WEIGHT * (radius.max(1e-6).ln().clamp(-10.0, 10.0)) as f32
+    } else {
+        SCALAR_WEIGHT * (density / (1.0 + density)) as f32
+    };
     (desc, radius)
 }
 

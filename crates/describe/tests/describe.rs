@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 
 use keycomp_components::{DetectParams, detect};
 use keycomp_describe::{
-    DIM, DescribeParams, NO_DISTANCE, Units, describe, describe_with, distance,
+    DIM, DescribeParams, NO_DISTANCE, SIZE_WEIGHT, Units, describe, describe_with, distance,
 };
 use keycomp_mesh::{Mesh, Vector3, geometry, read_mesh, synth};
 use nalgebra::{Rotation3, Unit};
@@ -97,7 +97,12 @@ fn file_units_equal_scale_free_when_the_unit_is_the_shapes_own_size() {
     assert_eq!(free.components.len(), file.components.len());
     for (a, b) in free.components.iter().zip(&file.components) {
         assert_eq!((a.center, a.level), (b.center, b.level));
-        assert!(distance(&a.descriptor, &b.descriptor) < 1e-3);
+        // every entry but 31 (keypoint density scale-free, size in file units) agrees
+        let (mut x, mut y) = (a.descriptor, b.descriptor);
+        (x[31], y[31]) = (0.0, 0.0);
+        assert!(distance(&x, &y) < 1e-3);
+        let size = SIZE_WEIGHT * (b.radius as f32).ln();
+        assert!((b.descriptor[31] - size).abs() < 1e-4);
     }
     // a unit twice as long: patches of the same level cover four times the relative area
     let twice = DescribeParams {
@@ -214,4 +219,41 @@ fn corresponding_components_are_closer_than_others_on_tosca_cats() {
         ms < 0.5 * mo,
         "corresponding {ms} vs non-corresponding {mo}"
     );
+}
+
+#[test]
+fn complete_only_leaves_out_parts_that_reach_the_boundary() {
+    // a bumpy open sheet: patches near its rim reach the boundary
+    let mesh = synth::height_field(40, 40, 0.05, |x, y| 0.1 * (6.0 * x).sin() * (5.0 * y).cos());
+    let topo = keycomp_mesh::Topology::new(&mesh);
+    let det = detect(&mesh, &DetectParams::default()).expect("detect");
+    let all = describe(&mesh, &det).expect("describe");
+    let complete = describe_with(
+        &mesh,
+        &det,
+        &DescribeParams {
+            complete_only: true,
+            ..DescribeParams::default()
+        },
+    )
+    .expect("describe");
+    let touches = |c: &keycomp_describe::ComponentDescription| {
+        c.vertices.iter().any(|&v| topo.is_boundary(v))
+    };
+    assert!(all.components.iter().any(touches));
+    assert!(!complete.components.is_empty());
+    assert!(!complete.components.iter().any(touches));
+    // a part that is nowhere complete: everything reaches the boundary, so all parts are kept
+    let tiny = synth::grid(3, 3, 1.0);
+    let det = detect(&tiny, &DetectParams::default()).expect("detect");
+    let d = describe_with(
+        &tiny,
+        &det,
+        &DescribeParams {
+            complete_only: true,
+            ..DescribeParams::default()
+        },
+    )
+    .expect("describe");
+    assert!(!d.components.is_empty());
 }
