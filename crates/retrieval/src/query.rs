@@ -1,11 +1,16 @@
-//! Ranking the shapes of an index against a described query: candidate shapes from the
-//! index's KD-tree over component descriptors, then [`crate::match_shapes`] per candidate.
+//! Ranking the shapes of an index against a described query, in two stages: candidate shapes
+//! from the index's KD-tree over part descriptors, each voted for by the query parts it has
+//! near neighbours for; then [`crate::match_weighted`] (the part-to-part assignment and the
+//! layout check) for the [`MATCHED_CANDIDATES`] best-voted.
 //!
-//! Cost: m KD-tree searches (m query components, [`CANDIDATES_PER_COMPONENT`] neighbours each),
-//! then one O(m³) assignment per distinct candidate shape (at most m ×
-//! [`CANDIDATES_PER_COMPONENT`] shapes), independent of the index size beyond the searches.
+//! Cost: m KD-tree searches (m query parts, [`CANDIDATES_PER_COMPONENT`] neighbours each), the
+//! votes in O(m · [`CANDIDATES_PER_COMPONENT`]), then at most [`MATCHED_CANDIDATES`]
+//! assignments of O(m³) each (in parallel), independent of the index size beyond the
+//! searches.
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
+
+use rayon::prelude::*;
 use std::path::PathBuf;
 
 use keycomp_describe::{DIM, Descriptor};
@@ -15,6 +20,9 @@ use crate::{MatchParams, ShapeMatch, ShapeView, match_weighted};
 
 /// Nearest components fetched from the KD-tree per query component.
 pub const CANDIDATES_PER_COMPONENT: usize = 64;
+
+/// Candidates matched part to part, the best by vote (see [`rank`]).
+pub const MATCHED_CANDIDATES: usize = 100;
 
 /// One ranked shape.
 #[derive(Debug, Clone)]
@@ -51,10 +59,11 @@ pub fn idf_weights(
         .collect()
 }
 
-/// The `k` best shapes of `reader` for the query (descriptors and `m × m` layout), best first;
-/// ties by shape id. Candidates are the shapes owning one of the nearest index components of
-/// a query part; every candidate is returned, those scoring 0 included (after the others), so
-/// a shape missing from the result was not a candidate.
+/// The `k` best shapes of `reader` for the query (descriptors and `m × m` layout), best first.
+/// Candidates are the shapes owning one of the nearest index components of a query part; the
+/// [`MATCHED_CANDIDATES`] with the most votes are matched and ranked by score (ties by shape
+/// id), the other candidates follow by vote with score 0. A shape missing from the result
+/// (when it is not cut by `k`) was not a candidate.
 pub fn rank(
     reader: &IndexReader<DIM>,
     descriptors: &[Descriptor],
@@ -62,15 +71,11 @@ pub fn rank(
     k: usize,
     params: &MatchParams,
 ) -> Result<Vec<Ranked>, IndexError> {
-    let mut candidates = BTreeSet::new();
     let mut neighbours = Vec::with_capacity(descriptors.len());
     for d in descriptors {
-        let nb = reader.nearest_components(d, CANDIDATES_PER_COMPONENT)?;
-        for c in &nb {
-            candidates.insert(c.shape);
-        }
-        neighbours.push(nb);
+        neighbours.push(reader.nearest_components(d, CANDIDATES_PER_COMPONENT)?);
     }
+    let votes = votes(&neighbours, params);
     let weights = if params.idf {
         idf_weights(&neighbours, reader.shapes().len(), params)
     } else {
@@ -80,9 +85,13 @@ pub fn rank(
         descriptors,
         layout,
     };
-    let mut ranked: Vec<Ranked> = candidates
-        .into_iter()
-        .filter_map(|id| {
+    // the best-voted candidates are matched; the others follow by vote with score 0
+    let mut by_vote: Vec<(ShapeId, f64)> = votes.into_iter().collect();
+    by_vote.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
+    let rest = by_vote.split_off(by_vote.len().min(MATCHED_CANDIDATES));
+    let mut ranked: Vec<Ranked> = by_vote
+        .into_par_iter()
+        .filter_map(|(id, _)| {
             let rec = reader.get(id)?;
             let descs: Vec<Descriptor> = rec.components.iter().map(|c| c.descriptor).collect();
             let m = match_weighted(
@@ -107,6 +116,46 @@ pub fn rank(
             .total_cmp(&a.result.score)
             .then(a.id.cmp(&b.id))
     });
+    ranked.extend(
+        rest.into_iter()
+            .take(k.saturating_sub(ranked.len()))
+            .filter_map(|(id, _)| {
+                Some(Ranked {
+                    id,
+                    path: reader.get(id)?.path.clone(),
+                    result: ShapeMatch {
+                        matches: Vec::new(),
+                        score: 0.0,
+                        scale: None,
+                        rejected: 0,
+                    },
+                })
+            }),
+    );
     ranked.truncate(k);
     Ok(ranked)
+}
+
+/// Candidate shapes and their votes: for each query part, the similarity
+/// `max(0, 1 − d/`[`MatchParams::max_distance`]`)` of the nearest of its neighbours in each
+/// shape, summed over the query's parts (a shape owning none of the neighbours is no
+/// candidate).
+fn votes(
+    neighbours: &[Vec<keycomp_index::ComponentMatch>],
+    params: &MatchParams,
+) -> BTreeMap<ShapeId, f64> {
+    let max_d = params.max_distance.max(f32::MIN_POSITIVE) as f64;
+    let mut votes = BTreeMap::new();
+    for nb in neighbours {
+        let mut best: BTreeMap<ShapeId, f64> = BTreeMap::new();
+        for c in nb {
+            let sim = (1.0 - (c.distance_sq.max(0.0) as f64).sqrt() / max_d).max(0.0);
+            let e = best.entry(c.shape).or_insert(0.0);
+            *e = f64::max(*e, sim);
+        }
+        for (s, v) in best {
+            *votes.entry(s).or_insert(0.0) += v;
+        }
+    }
+    votes
 }
