@@ -58,7 +58,7 @@ pub fn analyse(path: &Path, profile: &Profile) -> Result<Analysed> {
     let detection = detect(&mesh, &profile.detect)
         .with_context(|| format!("{}: key-component detection failed", path.display()))?;
     let description = describe_with(&mesh, &detection, &profile.describe)
-        .with_context(|| format!("{}: describing key-components failed", path.display()))?;
+        .with_context(|| format!("{}: describing its parts failed", path.display()))?;
     Ok(Analysed {
         mesh,
         detection,
@@ -221,7 +221,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
         let mut s = String::new();
         writeln!(
             s,
-            "{}: {} key-components; {}: {} key-components",
+            "{}: {} parts; {}: {} parts",
             args.a.display(),
             da.len(),
             args.b.display(),
@@ -241,7 +241,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
             writeln!(
                 s,
                 "{:>4}  {:>11}  {:>11}  {:>9}",
-                "pair", "A component", "B component", "distance"
+                "pair", "A part", "B part", "distance"
             )?;
         }
         for (k, x) in m.matches.iter().enumerate() {
