@@ -71,7 +71,10 @@
 //! not describe components).
 //!
 //! Cost: 60 smoothing passes over the whole mesh, a Harris fit per vertex as costly as
-//! detection's own, one fast-marching front per distinct part centre (kept for the layout),
+//! detection's own, one fast-marching front per distinct part centre (kept for the layout: with
+//! the defaults up to 97 fronts of |V| `f64` each, about 100 MB at 134k vertices; the
+//! parameters are bounded by [`MAX_LEVELS`], [`MAX_PATCHES_PER_LEVEL`] and
+//! [`MAX_SMOOTHING_ITERATIONS`]),
 //! plus linear passes over each part's vertices and [`PAIRS`] draws per part.
 
 use std::collections::HashMap;
@@ -163,6 +166,13 @@ pub const SIZE_WEIGHT: f32 = 0.75;
 
 /// Random point pairs drawn per part for the pair histograms (bins 48–63).
 pub const PAIRS: usize = 512;
+
+/// Most patch levels [`describe_with`] accepts.
+pub const MAX_LEVELS: usize = 12;
+/// Most patches per level [`describe_with`] accepts.
+pub const MAX_PATCHES_PER_LEVEL: usize = 64;
+/// Most smoothing iterations [`describe_with`] accepts.
+pub const MAX_SMOOTHING_ITERATIONS: usize = 1000;
 
 /// Layout entry of a pair of parts without a meaningful distance (the whole-surface part).
 pub const NO_DISTANCE: f32 = -1.0;
@@ -349,10 +359,26 @@ pub fn describe_with(
             });
         }
     }
-    if params.levels.len() > 200 || params.levels.iter().any(|r| !(r.is_finite() && *r > 0.0)) {
+    // the parameters may come from an index's profile: bound the work and memory they ask for
+    // (one front of |V| distances is kept per part centre)
+    if params.levels.len() > MAX_LEVELS
+        || params.levels.iter().any(|r| !(r.is_finite() && *r > 0.0))
+    {
         return Err(DescribeError::Params(format!(
-            "levels must be at most 200 positive radii, got {:?}",
+            "levels must be at most {MAX_LEVELS} positive radii, got {:?}",
             params.levels
+        )));
+    }
+    if params.patches_per_level > MAX_PATCHES_PER_LEVEL {
+        return Err(DescribeError::Params(format!(
+            "at most {MAX_PATCHES_PER_LEVEL} patches per level, got {}",
+            params.patches_per_level
+        )));
+    }
+    if params.smoothing_iterations > MAX_SMOOTHING_ITERATIONS {
+        return Err(DescribeError::Params(format!(
+            "at most {MAX_SMOOTHING_ITERATIONS} smoothing iterations, got {}",
+            params.smoothing_iterations
         )));
     }
     let area = geometry::total_area(mesh);

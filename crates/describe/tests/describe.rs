@@ -265,3 +265,33 @@ fn complete_only_leaves_out_parts_that_reach_the_boundary() {
     .expect("describe");
     assert!(!d.components.is_empty());
 }
+
+#[test]
+fn out_of_range_parameters_are_refused() {
+    let mesh = synth::textured_protrusion_sphere(4);
+    let det = detect(&mesh, &DetectParams::default()).expect("detect");
+    for params in [
+        DescribeParams {
+            patches_per_level: keycomp_describe::MAX_PATCHES_PER_LEVEL + 1,
+            ..DescribeParams::default()
+        },
+        DescribeParams {
+            levels: vec![0.1; keycomp_describe::MAX_LEVELS + 1],
+            ..DescribeParams::default()
+        },
+        DescribeParams {
+            levels: vec![0.1, f64::NAN],
+            ..DescribeParams::default()
+        },
+        DescribeParams {
+            smoothing_iterations: usize::MAX,
+            ..DescribeParams::default()
+        },
+    ] {
+        let e = describe_with(&mesh, &det, &params).expect_err("refused");
+        assert!(
+            e.to_string().starts_with("invalid description parameters"),
+            "{e}"
+        );
+    }
+}
