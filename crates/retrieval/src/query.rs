@@ -3,10 +3,10 @@
 //! near neighbours for; then [`crate::match_weighted`] (the part-to-part assignment and the
 //! layout check) for the [`MATCHED_CANDIDATES`] best-voted.
 //!
-//! Cost: m KD-tree searches (m query parts, [`CANDIDATES_PER_COMPONENT`] neighbours each), the
-//! votes in O(m · [`CANDIDATES_PER_COMPONENT`]), then at most [`MATCHED_CANDIDATES`]
-//! assignments of O(m³) each (in parallel), independent of the index size beyond the
-//! searches.
+//! Cost: m KD-tree searches in parallel (m query parts, [`CANDIDATES_PER_COMPONENT`] neighbours
+//! each), the votes in O(m · [`CANDIDATES_PER_COMPONENT`]), then at most
+//! [`MATCHED_CANDIDATES`] assignments of O(m³) each (in parallel), independent of the index
+//! size beyond the searches.
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -71,10 +71,7 @@ pub fn rank(
     k: usize,
     params: &MatchParams,
 ) -> Result<Vec<Ranked>, IndexError> {
-    let mut neighbours = Vec::with_capacity(descriptors.len());
-    for d in descriptors {
-        neighbours.push(reader.nearest_components(d, CANDIDATES_PER_COMPONENT)?);
-    }
+    let neighbours = reader.nearest_components_batch(descriptors, CANDIDATES_PER_COMPONENT)?;
     let votes = votes(&neighbours, params);
     let weights = if params.idf {
         idf_weights(&neighbours, reader.shapes().len(), params)
