@@ -377,6 +377,51 @@ mod tests {
     }
 
     #[test]
+    fn pairs_without_a_distance_are_not_held_against_a_match() {
+        // five parts on a line plus a "whole" part with no layout distance (-1) to the others
+        let ds: Vec<Descriptor> = (0..6).map(desc).collect();
+        let mut l = layout(&[0.0, 1.0, 2.5, 4.0, 7.0, 0.0]);
+        for i in 0..5 {
+            l[i * 6 + 5] = -1.0;
+            l[5 * 6 + i] = -1.0;
+        }
+        let v = ShapeView {
+            descriptors: &ds,
+            layout: &l,
+        };
+        let m = match_shapes(v, v, &MatchParams::default());
+        assert_eq!(m.matches.len(), 6);
+        assert_eq!(m.rejected, 0);
+        assert!((m.score - 1.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn weights_scale_each_query_part() {
+        let ds: Vec<Descriptor> = (0..4).map(desc).collect();
+        let l = layout(&[0.0, 1.0, 2.5, 4.0]);
+        let target: Vec<Descriptor> = ds[..2].to_vec();
+        let lt = layout(&[0.0, 1.0]);
+        let (q, t) = (
+            ShapeView {
+                descriptors: &ds,
+                layout: &l,
+            },
+            ShapeView {
+                descriptors: &target,
+                layout: &lt,
+            },
+        );
+        // parts 0 and 1 match exactly, 2 and 3 have no partner
+        let plain = match_shapes(q, t, &MatchParams::default());
+        assert!((plain.score - 0.5).abs() < 1e-9);
+        let heavy = match_weighted(q, t, &MatchParams::default(), &[3.0, 3.0, 1.0, 1.0]);
+        assert!((heavy.score - 0.75).abs() < 1e-9);
+        // missing or invalid weights count 1
+        let odd = match_weighted(q, t, &MatchParams::default(), &[f64::NAN]);
+        assert!((odd.score - 0.5).abs() < 1e-9);
+    }
+
+    #[test]
     fn empty_shapes_give_no_match() {
         let ds: Vec<Descriptor> = (0..2).map(desc).collect();
         let l = layout(&[0.0, 1.0]);

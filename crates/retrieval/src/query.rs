@@ -156,3 +156,43 @@ fn votes(
     }
     votes
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use keycomp_index::ComponentMatch;
+
+    fn nb(shape: u64, d: f32) -> ComponentMatch {
+        ComponentMatch {
+            shape: ShapeId(shape),
+            component: 0,
+            distance_sq: d * d,
+        }
+    }
+
+    #[test]
+    fn votes_sum_each_parts_best_similarity_per_shape() {
+        let params = MatchParams::default(); // similarity 1 − d/0.8
+        let neighbours = vec![
+            // part 0: shape 1 twice (the nearer counts), shape 2 beyond the match distance
+            vec![nb(1, 0.2), nb(1, 0.4), nb(2, 0.9)],
+            // part 1: shape 2 near
+            vec![nb(2, 0.0)],
+        ];
+        let v = votes(&neighbours, &params);
+        assert_eq!(v.len(), 2, "every shape owning a neighbour is a candidate");
+        assert!((v[&ShapeId(1)] - 0.75).abs() < 1e-6);
+        assert!((v[&ShapeId(2)] - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn idf_weighs_rare_parts_more() {
+        let params = MatchParams::default(); // "near": within 0.4
+        let common: Vec<ComponentMatch> = (0..10).map(|s| nb(s, 0.1)).collect();
+        let rare = vec![nb(3, 0.1), nb(4, 0.5), nb(5, 0.6)];
+        let w = idf_weights(&[common, rare], 100, &params);
+        assert!((w[0] - (1.0f64 + 100.0 / 11.0).ln()).abs() < 1e-9);
+        assert!((w[1] - (1.0f64 + 100.0 / 2.0).ln()).abs() < 1e-9);
+        assert!(w[1] > w[0]);
+    }
+}
