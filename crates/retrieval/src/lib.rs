@@ -30,7 +30,7 @@
 
 mod query;
 
-pub use query::{CANDIDATES_PER_COMPONENT, Ranked, idf_weights, rank};
+pub use query::{CANDIDATES_PER_COMPONENT, MATCHED_CANDIDATES, Ranked, idf_weights, rank};
 
 use keycomp_describe::{Descriptor, distance};
 use pathfinding::kuhn_munkres::kuhn_munkres;
