@@ -9,8 +9,8 @@
 //! `OUT/index` (opened by [`crate::index_cmd::open_writer`], as `index add` does), and each query is ranked by `keycomp_retrieval::rank` over that
 //! index, as `keycomp query` does. A partial query is written to `OUT/fragments` as an OFF file
 //! and analysed by the same function, so it is detected and described exactly as a file given
-//! to `keycomp query` would be. Shapes `rank` does not return (no shared candidate component,
-//! or a score of 0) follow in a seeded random order ([`complete_ranking`]).
+//! to `keycomp query` would be. Shapes `rank` does not return (no part among the nearest
+//! neighbours of a query part) follow in a seeded random order ([`complete_ranking`]).
 //!
 //! **Baselines** are a descriptor per mesh and a distance between descriptors ([`Baseline`]),
 //! computed on the same queries (a fragment's descriptors from the fragment mesh that is written
