@@ -110,6 +110,13 @@ pub fn read_mesh(path: &Path) -> Result<LoadedMesh, MeshError> {
 /// Parses and validates the contents of a mesh file in the given format. Errors carry no path
 /// (see [`read_mesh`]); useful for data not in a file, tests and fuzzing.
 pub fn read_mesh_from_bytes(bytes: &[u8], format: Format) -> Result<LoadedMesh, MeshError> {
+    // text formats saved by some editors start with a UTF-8 byte-order mark: skip it
+    let bytes = match format {
+        Format::Off | Format::Obj | Format::Ply => {
+            bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes)
+        }
+        Format::Stl => bytes,
+    };
     let raw = match format {
         Format::Off => off::read_off(bytes),
         Format::Obj => obj::read_obj(bytes),

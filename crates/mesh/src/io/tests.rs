@@ -48,6 +48,27 @@ fn off_round_trips() {
 }
 
 #[test]
+fn a_utf8_byte_order_mark_before_a_text_header_is_skipped() {
+    let m = icosphere(1, 1.0);
+    let texts = [
+        ("off", Format::Off, fixtures::off_variants(&m)[0].1.clone()),
+        ("obj", Format::Obj, fixtures::obj_variants(&m)[0].1.clone()),
+        (
+            "ply",
+            Format::Ply,
+            fixtures::ply(&m, PlyEncoding::Ascii, PlyFaces::Faces, false),
+        ),
+    ];
+    for (ext, format, plain) in texts {
+        let mut bom = b"\xEF\xBB\xBF".to_vec();
+        bom.extend_from_slice(&plain);
+        let a = read(&plain, format);
+        let b = read(&bom, format);
+        assert_eq!(a.mesh, b.mesh, "{ext}");
+    }
+}
+
+#[test]
 fn obj_round_trips() {
     for (name, m) in meshes() {
         for (variant, bytes) in fixtures::obj_variants(&m) {
