@@ -40,7 +40,7 @@ pub struct DetectBenchArgs {
     #[command(flatten)]
     pub detect: DetectArgs,
     /// Runs per mesh; the table shows the median of each column.
-    #[arg(long, default_value_t = 3)]
+    #[arg(long, default_value_t = 3, value_parser = crate::output::at_least_one)]
     pub runs: usize,
     /// Worker threads (default: all cores).
     #[arg(long)]

@@ -47,7 +47,7 @@ pub struct Args {
     #[arg(long, default_value_t = 2013, value_name = "S")]
     pub shape_seed: u64,
     /// Results shown per query.
-    #[arg(short = 'k', long = "top", default_value_t = 3)]
+    #[arg(short = 'k', long = "top", default_value_t = 3, value_parser = crate::output::at_least_one)]
     pub k: usize,
     #[command(flatten)]
     pub detect: DetectArgs,

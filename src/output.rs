@@ -30,3 +30,11 @@ pub fn print_text(text: &str) -> Result<()> {
     out.flush()?;
     Ok(())
 }
+
+/// Parses a count that must be at least 1 (clap `value_parser` of `-k`, `--runs`, …).
+pub fn at_least_one(s: &str) -> Result<usize, String> {
+    match s.trim().parse::<usize>() {
+        Ok(n) if n >= 1 => Ok(n),
+        _ => Err(format!("'{s}': expected a whole number of at least 1")),
+    }
+}

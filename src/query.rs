@@ -29,7 +29,7 @@ pub struct Args {
     #[arg(long, default_value = "index", value_name = "DIR")]
     pub index: PathBuf,
     /// Number of results.
-    #[arg(short = 'k', long = "top", default_value_t = 10)]
+    #[arg(short = 'k', long = "top", default_value_t = 10, value_parser = crate::output::at_least_one)]
     pub k: usize,
     #[command(flatten)]
     pub detect: DetectArgs,

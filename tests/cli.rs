@@ -358,3 +358,20 @@ fn render_writes_png_pictures_and_rejects_bad_options() {
     }
     assert!(!Path::new("x.png").exists() && !Path::new("x.jpg").exists());
 }
+
+#[test]
+fn counts_of_zero_are_refused_with_exit_2() {
+    for args in [
+        vec!["query", "x.off", "-k", "0"],
+        vec!["bench", "detect", "x.off", "--runs", "0"],
+        vec!["demo", "--top", "0"],
+    ] {
+        let o = keycomp(&args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}");
+        assert!(
+            stderr(&o).contains("expected a whole number of at least 1"),
+            "{args:?}: {}",
+            stderr(&o)
+        );
+    }
+}
