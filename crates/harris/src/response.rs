@@ -290,29 +290,15 @@ pub(crate) fn vertex_response(ctx: &Context, v: VertexId, s: &mut Scratch) -> f6
     }
 }
 
-/// Every vertex's local fit (`None` where it has no response), in parallel over vertices.
-pub(crate) fn all_fits(ctx: &Context) -> Vec<Option<LocalFit>> {
+/// `f` of every vertex, in parallel over vertices (rayon); each worker chunk owns one
+/// [`Scratch`].
+fn per_vertex<T: Clone + Send>(
+    ctx: &Context,
+    empty: T,
+    f: impl Fn(&Context, VertexId, &mut Scratch) -> T + Sync,
+) -> Vec<T> {
     let n = ctx.positions.len();
-    let mut out = vec![None; n];
-    if n == 0 {
-        return out;
-    }
-    let chunk = (n / (rayon::current_num_threads() * 16)).max(256);
-    out.par_chunks_mut(chunk)
-        .enumerate()
-        .for_each(|(ci, slice)| {
-            let mut s = Scratch::new(n);
-            for (i, r) in slice.iter_mut().enumerate() {
-                *r = local_fit_with(ctx, (ci * chunk + i) as VertexId, &mut s);
-            }
-        });
-    out
-}
-
-/// All responses, in parallel over vertices (rayon); each worker chunk owns one [`Scratch`].
-pub(crate) fn all_responses(ctx: &Context) -> Vec<f64> {
-    let n = ctx.positions.len();
-    let mut out = vec![f64::NAN; n];
+    let mut out = vec![empty; n];
     if n == 0 {
         return out;
     }
@@ -323,8 +309,18 @@ pub(crate) fn all_responses(ctx: &Context) -> Vec<f64> {
         .for_each(|(ci, slice)| {
             let mut s = Scratch::new(n);
             for (i, r) in slice.iter_mut().enumerate() {
-                *r = vertex_response(ctx, (ci * chunk + i) as VertexId, &mut s);
+                *r = f(ctx, (ci * chunk + i) as VertexId, &mut s);
             }
         });
     out
+}
+
+/// Every vertex's local fit (`None` where it has no response), in parallel over vertices.
+pub(crate) fn all_fits(ctx: &Context) -> Vec<Option<LocalFit>> {
+    per_vertex(ctx, None, local_fit_with)
+}
+
+/// All responses, in parallel over vertices.
+pub(crate) fn all_responses(ctx: &Context) -> Vec<f64> {
+    per_vertex(ctx, f64::NAN, vertex_response)
 }
