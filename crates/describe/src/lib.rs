@@ -72,7 +72,7 @@
 //!
 //! Cost: 60 smoothing passes over the whole mesh, a Harris fit per vertex as costly as
 //! detection's own, one fast-marching front per distinct part centre (kept for the layout: with
-//! the defaults up to 97 fronts of |V| `f64` each, about 100 MB at 134k vertices; the
+//! the defaults about 100 fronts of |V| `f64` each, about 100 MB at 134k vertices; the
 //! parameters are bounded by [`MAX_LEVELS`], [`MAX_PATCHES_PER_LEVEL`] and
 //! [`MAX_SMOOTHING_ITERATIONS`]),
 //! plus linear passes over each part's vertices and [`PAIRS`] draws per part.
@@ -135,8 +135,9 @@ pub struct DescribeParams {
     /// Length unit. Default [`Units::ScaleFree`].
     pub units: Units,
     /// Leaves out parts that reach the mesh's boundary, unless no part is complete (see
-    /// *Parts*). Default false: on SHREC'07 Watertight fragments it lowered NN from 0.625 to
-    /// 0.550 (balls), 0.825 to 0.730 (plane cuts) and 0.395 to 0.280 (scans) (BENCHMARKS.md).
+    /// *Parts*). Default false: on SHREC'07 Watertight fragments (with 6 patches per level and
+    /// inverse-frequency weights) it lowered NN from 0.625 to 0.550 (balls), 0.825 to 0.730
+    /// (plane cuts) and 0.395 to 0.280 (scans) (BENCHMARKS.md, *Ablation*).
     pub complete_only: bool,
 }
 
@@ -157,11 +158,24 @@ impl Default for DescribeParams {
 /// Number of values in a component descriptor.
 pub const DIM: usize = 64;
 
+/// The descriptor's histograms, as `(first, end)` entry ranges: each sums to 1 (or is all 0
+/// when the part has nothing to count); the other entries (28–31) are scalars.
+pub const HISTOGRAMS: [(usize, usize); 8] = [
+    (0, 8),
+    (8, 16),
+    (16, 24),
+    (24, 28),
+    (32, 40),
+    (40, 48),
+    (48, 56),
+    (56, 64),
+];
+
 /// Weight of the four scalar entries (28–31) relative to histogram bins.
 pub const SCALAR_WEIGHT: f32 = 0.5;
 
 /// Weight of entry 31 in file units, `ln(radius)`: parts of neighbouring levels (radii 1.5
-/// apart) differ there by 0.3, half of a typical distance between unrelated parts.
+/// apart) differ there by 0.3, against the 0.8 at which matching similarity reaches 0.
 pub const SIZE_WEIGHT: f32 = 0.75;
 
 /// Random point pairs drawn per part for the pair histograms (bins 48–63).
@@ -454,6 +468,7 @@ pub fn describe_with(
     }
     let count_keypoints = |vs: &[u32]| vs.iter().filter(|&&v| is_keypoint[v as usize]).count();
 
+    let whole_level = (params.levels.len() + 1).min(255) as u8;
     let mut parts: Vec<Part> = Vec::new();
     for c in &det.components {
         let p = Part {
@@ -536,7 +551,7 @@ pub fn describe_with(
                 center,
                 vertices: (0..n as u32).collect(),
                 keypoints: det.keypoints.len(),
-                level: (params.levels.len() + 1).min(255) as u8,
+                level: whole_level,
             };
             if clipped(&whole.vertices) {
                 clipped_parts.push(whole);
@@ -552,31 +567,23 @@ pub fn describe_with(
     }
 
     let m = parts.len();
-    let whole_level = (params.levels.len() + 1).min(255) as u8;
+    let centers: Vec<u32> = parts.iter().map(|p| p.center).collect();
     let mut layout = vec![0f32; m * m];
     let mut components = Vec::with_capacity(m);
-    for (ci, p) in parts.iter().enumerate() {
+    for (ci, p) in parts.into_iter().enumerate() {
         let d = fronts.get(p.center)?;
-        for (cj, o) in parts.iter().enumerate() {
-            layout[ci * m + cj] = d[o.center as usize] as f32;
+        for (cj, &o) in centers.iter().enumerate() {
+            layout[ci * m + cj] = d[o as usize] as f32;
         }
-        let (descriptor, radius) = describe_part(&surface, p, d);
+        let (descriptor, radius, area) = describe_part(&surface, &p, d);
         components.push(ComponentDescription {
             descriptor,
             center: p.center,
-            area: if total > 0.0 {
-                p.vertices
-                    .iter()
-                    .map(|&v| surface.areas[v as usize])
-                    .sum::<f64>()
-                    / total
-            } else {
-                0.0
-            },
+            area: if total > 0.0 { area / total } else { 0.0 },
             keypoints: p.keypoints,
             radius,
             level: p.level,
-            vertices: p.vertices.clone(),
+            vertices: p.vertices,
         });
     }
     // symmetrise the layout; disconnected pairs get twice the largest finite distance
@@ -589,7 +596,7 @@ pub fn describe_with(
         for j in 0..i {
             let (a, b) = (layout[i * m + j], layout[j * m + i]);
             let v = if params.whole
-                && (parts[i].level == whole_level || parts[j].level == whole_level)
+                && (components[i].level == whole_level || components[j].level == whole_level)
             {
                 NO_DISTANCE
             } else if a.is_finite() && b.is_finite() {
@@ -605,8 +612,9 @@ pub fn describe_with(
     Ok(ShapeDescription { components, layout })
 }
 
-/// The descriptor of one part and its geodesic radius (`d`: distances from its centre).
-fn describe_part(s: &Surface, part: &Part, d: &[f64]) -> (Descriptor, f64) {
+/// The descriptor of one part, its geodesic radius and its area (`d`: distances from its
+/// centre).
+fn describe_part(s: &Surface, part: &Part, d: &[f64]) -> (Descriptor, f64, f64) {
     let pos = &s.mesh.positions;
     let vs = &part.vertices;
     let center = pos[part.center as usize];
@@ -699,16 +707,7 @@ fn describe_part(s: &Surface, part: &Part, d: &[f64]) -> (Descriptor, f64) {
             desc[56 + bin(ang, 0.0, std::f64::consts::PI + 1e-9, 8)] += 1.0;
         }
     }
-    for (lo, hi) in [
-        (0, 8),
-        (8, 16),
-        (16, 24),
-        (24, 28),
-        (32, 40),
-        (40, 48),
-        (48, 56),
-        (56, 64),
-    ] {
+    for (lo, hi) in HISTOGRAMS {
         normalise(&mut desc[lo..hi]);
     }
     let compact = if comp_area > 0.0 && radius > 0.0 {
@@ -736,7 +735,7 @@ fn describe_part(s: &Surface, part: &Part, d: &[f64]) -> (Descriptor, f64) {
     } else {
         SCALAR_WEIGHT * (density / (1.0 + density)) as f32
     };
-    (desc, radius)
+    (desc, radius, comp_area)
 }
 
 /// Euclidean distance between two descriptors.

@@ -4,7 +4,8 @@ use std::path::{Path, PathBuf};
 
 use keycomp_components::{DetectParams, detect};
 use keycomp_describe::{
-    DIM, DescribeParams, NO_DISTANCE, SIZE_WEIGHT, Units, describe, describe_with, distance,
+    DIM, DescribeParams, HISTOGRAMS, NO_DISTANCE, SIZE_WEIGHT, Units, describe, describe_with,
+    distance,
 };
 use keycomp_mesh::{Mesh, Vector3, geometry, read_mesh, synth};
 use nalgebra::{Rotation3, Unit};
@@ -28,17 +29,13 @@ fn histograms_sum_to_one_and_layout_is_symmetric() {
     let last = d.components.last().expect("parts");
     assert_eq!(last.level, whole);
     assert!((last.area - 1.0).abs() < 1e-9);
+    // the histograms cover every entry but the four scalars
+    assert_eq!(
+        HISTOGRAMS.iter().map(|(a, b)| b - a).sum::<usize>(),
+        DIM - 4
+    );
     for c in &d.components {
-        for (lo, hi) in [
-            (0, 8),
-            (8, 16),
-            (16, 24),
-            (24, 28),
-            (32, 40),
-            (40, 48),
-            (48, 56),
-            (56, 64),
-        ] {
+        for (lo, hi) in HISTOGRAMS {
             let s: f32 = c.descriptor[lo..hi].iter().sum();
             assert!((s - 1.0).abs() < 1e-4, "bins {lo}..{hi} sum to {s}");
         }
@@ -236,15 +233,11 @@ fn complete_only_leaves_out_parts_that_reach_the_boundary() {
     let topo = keycomp_mesh::Topology::new(&mesh);
     let det = detect(&mesh, &DetectParams::default()).expect("detect");
     let all = describe(&mesh, &det).expect("describe");
-    let complete = describe_with(
-        &mesh,
-        &det,
-        &DescribeParams {
-            complete_only: true,
-            ..DescribeParams::default()
-        },
-    )
-    .expect("describe");
+    let only_complete = DescribeParams {
+        complete_only: true,
+        ..DescribeParams::default()
+    };
+    let complete = describe_with(&mesh, &det, &only_complete).expect("describe");
     let touches = |c: &keycomp_describe::ComponentDescription| {
         c.vertices.iter().any(|&v| topo.is_boundary(v))
     };
@@ -254,15 +247,7 @@ fn complete_only_leaves_out_parts_that_reach_the_boundary() {
     // a part that is nowhere complete: everything reaches the boundary, so all parts are kept
     let tiny = synth::grid(3, 3, 1.0);
     let det = detect(&tiny, &DetectParams::default()).expect("detect");
-    let d = describe_with(
-        &tiny,
-        &det,
-        &DescribeParams {
-            complete_only: true,
-            ..DescribeParams::default()
-        },
-    )
-    .expect("describe");
+    let d = describe_with(&tiny, &det, &only_complete).expect("describe");
     assert!(!d.components.is_empty());
 }
 
