@@ -347,11 +347,9 @@ fn add(args: AddArgs) -> Result<ExitCode> {
     if files.is_empty() {
         bail!("no mesh files (.off, .obj, .ply, .stl) found in the paths given");
     }
+    let mut writer = Writer::create_or_open(&args.dir.index)?;
     // an index that has a profile keeps its description (its length unit included)
-    let existing = match Reader::open(&args.dir.index) {
-        Ok(r) if !r.profile().is_empty() => serde_json::from_str::<Profile>(r.profile()).ok(),
-        _ => None,
-    };
+    let existing = serde_json::from_str::<Profile>(writer.profile()).ok();
     let describe = match existing {
         Some(p) => {
             let file = matches!(p.describe.units, keycomp_describe::Units::File { .. });
@@ -367,7 +365,7 @@ fn add(args: AddArgs) -> Result<ExitCode> {
         None => args.units.describe_params(|| areas_of(&files))?,
     };
     let profile = Profile::with(&params, describe);
-    let mut writer = open_writer(&args.dir.index, &profile)?;
+    writer.ensure_profile(&profile.to_text()?)?;
     let bar = progress(files.len() as u64, "indexing");
     let (mut added, mut replaced, mut unchanged) = (0usize, 0usize, 0usize);
     let mut failed: Vec<(PathBuf, String)> = Vec::new();

@@ -198,17 +198,22 @@ fn index_commands_on_synthetic_shapes() {
     assert_eq!(o.status.code(), Some(2));
 }
 
+/// In `dir`: the path of an index to create, a textured sphere and a torus (OFF files).
+fn index_and_two_shapes(dir: &Path) -> (PathBuf, PathBuf, PathBuf) {
+    let shape = dir.join("textured.off");
+    write_off(&synth::textured_protrusion_sphere(6), &shape).expect("w");
+    let other = dir.join("torus.off");
+    write_off(&synth::torus(2.0, 0.5, 120, 60), &other).expect("w");
+    (dir.join("idx"), shape, other)
+}
+
 /// The index records how its descriptors were made: a query without detection options uses
 /// the index's parameters, contradicting options and adding with other parameters are refused
 /// (exit 2, index unchanged), and a format-1 index (no profile) is refused for queries.
 #[test]
 fn index_profile_keeps_descriptors_comparable() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let index = dir.path().join("idx");
-    let shape = dir.path().join("textured.off");
-    write_off(&synth::textured_protrusion_sphere(6), &shape).expect("w");
-    let other = dir.path().join("torus.off");
-    write_off(&synth::torus(2.0, 0.5, 120, 60), &other).expect("w");
+    let (index, shape, other) = index_and_two_shapes(dir.path());
 
     let o = keycomp(&[
         "index",
@@ -284,11 +289,7 @@ fn index_profile_keeps_descriptors_comparable() {
 #[test]
 fn file_units_are_recorded_in_the_index() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let index = dir.path().join("idx");
-    let shape = dir.path().join("textured.off");
-    write_off(&synth::textured_protrusion_sphere(6), &shape).expect("w");
-    let other = dir.path().join("torus.off");
-    write_off(&synth::torus(2.0, 0.5, 120, 60), &other).expect("w");
+    let (index, shape, other) = index_and_two_shapes(dir.path());
     let o = keycomp(&[
         "index",
         "add",
