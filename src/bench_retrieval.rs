@@ -615,7 +615,7 @@ fn summarize_method(
 }
 
 /// Partial repeatability of one fragment: for key-components (level 0) and for patches (levels
-/// 1 and up), the source's parts with at least half of their area inside the fragment, and the
+/// 1 to L, the whole surface left out), the source's parts with at least half of their area inside the fragment, and the
 /// mean over them of the best overlap (area IoU on the fragment, as in the repeatability
 /// benchmark) between the part restricted to the fragment and a part the fragment's own
 /// analysis finds (of the same kind: key-component or patch, any level).
@@ -643,12 +643,17 @@ fn partial_repeatability(
             *t = i as u32;
         }
     }
+    // key-components are level 0, patches levels 1..=L; the whole surface (L + 1) is neither
+    let whole = profile.describe.levels.len() + 1;
+    let in_group = move |c: &&keycomp_describe::ComponentDescription, patches: bool| {
+        (c.level as usize) < whole && (c.level > 0) == patches
+    };
     let group = |patches: bool| -> (f64, usize) {
         let mine: Vec<&[u32]> = f
             .description
             .components
             .iter()
-            .filter(|c| (c.level > 0) == patches)
+            .filter(|c| in_group(c, patches))
             .map(|c| c.vertices.as_slice())
             .collect();
         let (mut sum, mut count) = (0.0, 0);
@@ -656,11 +661,8 @@ fn partial_repeatability(
             .description
             .components
             .iter()
-            .filter(|c| (c.level > 0) == patches)
+            .filter(|c| in_group(c, patches))
         {
-            if c.area >= 0.999 {
-                continue; // the whole surface
-            }
             let total: f64 = c.vertices.iter().map(|&v| src_areas[v as usize]).sum();
             let inside: Vec<u32> = c
                 .vertices

@@ -64,11 +64,11 @@ pub fn open_writer(dir: &Path, profile: &Profile) -> Result<Writer> {
     Ok(w)
 }
 
-/// Opens the index at `dir` for querying and chooses the detection parameters of the query:
-/// the index's own when the command line gives no detection option, or the command line's
-/// when they agree with the index's; anything else (another descriptor version, other
-/// parameters, an index without a profile) is a clear error, since its descriptors would not
-/// be comparable.
+/// Opens the index at `dir` for querying and chooses the profile of the query: the index's
+/// description parameters (its length unit included) always, and its detection parameters when
+/// the command line gives no detection option or agrees with them; anything else (another
+/// descriptor version, other detection parameters, an index without a profile) is a clear
+/// error, since its descriptors would not be comparable.
 pub fn open_reader_for_query(dir: &Path, args: &DetectArgs) -> Result<(Reader, Profile)> {
     let reader = Reader::open(dir)?;
     let mine = Profile::current(&args.retrieval_params());

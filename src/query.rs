@@ -124,7 +124,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
             eprintln!("report: {}", page.display()); // stdout is the JSON
         }
         output::print_json(&Report {
-            not_returned: not_returned.clone(),
+            not_returned,
             query: args.mesh.display().to_string(),
             components: descs.len(),
             results: ranked
