@@ -153,13 +153,54 @@ pub fn unseal(path: &Path, bytes: Vec<u8>, kind: u32, newest: u32) -> Result<Ope
     })
 }
 
-/// Reads a whole file. `NotFound` is returned as the raw `io::Error` so callers can turn it
-/// into the right variant.
+/// Reads a whole regular file. `NotFound` is returned as the raw `io::Error` so callers can
+/// turn it into the right variant; anything but a regular file (a FIFO, which would block, a
+/// device, a directory) is refused with `InvalidInput` before it is opened.
 pub fn read_all(path: &Path) -> std::io::Result<Vec<u8>> {
-    let mut f = File::open(path)?;
+    let mut f = open_regular(path)?;
     let mut buf = Vec::new();
     f.read_to_end(&mut buf)?;
     Ok(buf)
+}
+
+/// Opens `path` for reading if it is a regular file (following symlinks); refuses anything
+/// else with `InvalidInput` without opening it, since opening a FIFO blocks until a writer
+/// comes.
+pub fn open_regular(path: &Path) -> std::io::Result<File> {
+    let kind = fs::metadata(path)?.file_type();
+    if !kind.is_file() {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            format!("not a regular file (a {})", file_kind_name(kind)),
+        ));
+    }
+    File::open(path)
+}
+
+/// A short name for a kind of file, for messages.
+pub fn file_kind_name(kind: fs::FileType) -> &'static str {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if kind.is_fifo() {
+            return "FIFO";
+        }
+        if kind.is_char_device() || kind.is_block_device() {
+            return "device";
+        }
+        if kind.is_socket() {
+            return "socket";
+        }
+    }
+    if kind.is_dir() {
+        "directory"
+    } else if kind.is_symlink() {
+        "symbolic link"
+    } else if kind.is_file() {
+        "regular file"
+    } else {
+        "special file"
+    }
 }
 
 static TEMP_COUNTER: AtomicU64 = AtomicU64::new(0);

@@ -90,10 +90,41 @@ pub fn parse_segment_file_name(name: &str) -> Option<u64> {
     digits.parse().ok()
 }
 
-pub(crate) fn bincode_config() -> impl bincode::config::Config {
+pub(crate) fn bincode_config() -> bincode::config::Configuration<
+    bincode::config::LittleEndian,
+    bincode::config::Fixint,
+    bincode::config::NoLimit,
+> {
     bincode::config::standard()
         .with_little_endian()
         .with_fixed_int_encoding()
+}
+
+/// Decodes a `T` from the start of `bytes` with the index's encoding, never allocating much
+/// more than `bytes` holds.
+///
+/// A length field inside the bytes (of a string, a path, a vector) is trusted by bincode up to
+/// its configured limit, and every decoded byte counts against that limit. The limit here is the
+/// smallest power of 16 (from 64 KiB) not below `bytes.len()`, so a crafted length fails with
+/// "limit exceeded" instead of an allocation of terabytes, and no honest payload, whose decoded
+/// bytes never exceed its own length, is refused.
+pub(crate) fn decode_bounded<T: serde::de::DeserializeOwned>(
+    bytes: &[u8],
+) -> std::result::Result<(T, usize), bincode::error::DecodeError> {
+    macro_rules! limited {
+        ($limit:expr) => {
+            bincode::serde::decode_from_slice(bytes, bincode_config().with_limit::<{ $limit }>())
+        };
+    }
+    match bytes.len() as u64 {
+        n if n <= 1 << 16 => limited!(1 << 16),
+        n if n <= 1 << 20 => limited!(1 << 20),
+        n if n <= 1 << 24 => limited!(1 << 24),
+        n if n <= 1 << 28 => limited!(1 << 28),
+        n if n <= 1 << 32 => limited!(1 << 32),
+        n if n <= 1 << 36 => limited!(1 << 36),
+        _ => limited!(1 << 40),
+    }
 }
 
 impl Manifest {
@@ -144,12 +175,10 @@ impl Manifest {
         let malformed = |msg: String| IndexError::corrupt(path, CorruptKind::Malformed(msg));
         let (m, used): (Manifest, usize) = if opened.version == 1 {
             let (m, used): (ManifestV1, usize) =
-                bincode::serde::decode_from_slice(payload, bincode_config())
-                    .map_err(|e| malformed(e.to_string()))?;
+                decode_bounded(payload).map_err(|e| malformed(e.to_string()))?;
             (m.into(), used)
         } else {
-            bincode::serde::decode_from_slice(payload, bincode_config())
-                .map_err(|e| malformed(e.to_string()))?
+            decode_bounded(payload).map_err(|e| malformed(e.to_string()))?
         };
         if used != payload.len() {
             return Err(malformed(format!(
@@ -247,6 +276,51 @@ mod tests {
         let sum = xxhash_rust::xxh3::xxh3_64(&b[..want.len() + 16]);
         assert_eq!(&f[16..24], &sum.to_le_bytes());
         assert_eq!(&f[24..32], b"KCIDXEND");
+    }
+
+    /// Every 8-byte window of a manifest payload overwritten with a huge value, sealed again:
+    /// decoding gives a value or an error, never a panic or a huge allocation; a huge profile
+    /// length is reported as malformed.
+    #[test]
+    fn huge_lengths_are_errors_not_allocations() {
+        let mut m = Manifest::empty(8);
+        m.next_segment = 2;
+        m.next_shape_id = 5;
+        m.segments.push(SegmentEntry {
+            number: 1,
+            len: 100,
+            checksum: 5,
+            shapes: 4,
+            components: 20,
+        });
+        m.tombstones = vec![ShapeId(2)];
+        m.profile = "profile".into();
+        let b = m.to_bytes().unwrap();
+        let n = b.len() - crate::file::FOOTER_LEN;
+        let path = Path::new("MANIFEST");
+        for at in 0..n - 8 {
+            for huge in [u64::MAX, 1 << 40] {
+                let mut p = b[..n].to_vec();
+                p[at..at + 8].copy_from_slice(&huge.to_le_bytes());
+                let (sealed, _) = file::seal(p, KIND_MANIFEST, FORMAT_VERSION);
+                let _ = Manifest::from_bytes(path, sealed, None);
+            }
+        }
+        let mut p = b[..n].to_vec();
+        let at = n - m.profile.len() - 8;
+        p[at..at + 8].copy_from_slice(&(1u64 << 45).to_le_bytes());
+        let (sealed, _) = file::seal(p, KIND_MANIFEST, FORMAT_VERSION);
+        let e = Manifest::from_bytes(path, sealed, None).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                IndexError::Corrupt {
+                    kind: CorruptKind::Malformed(_),
+                    ..
+                }
+            ),
+            "{e}"
+        );
     }
 
     #[test]

@@ -82,7 +82,7 @@ type Tree<const D: usize> = ImmutableKdTree<f32, u32, D, 128>;
 
 /// How many times [`IndexReader::open`] starts over when a concurrent writer deleted a
 /// segment it was about to read.
-const OPEN_ATTEMPTS: usize = 8;
+pub(crate) const OPEN_ATTEMPTS: usize = 8;
 
 /// Read-only snapshot of an index. Cheap to query from several threads (`&self`).
 pub struct IndexReader<const D: usize> {
@@ -161,7 +161,7 @@ impl<const D: usize> IndexReader<D> {
         let segments: Vec<Result<segment::Segment<D>>> = manifest
             .segments
             .par_iter()
-            .map(|entry| segment::read::<D>(dir, entry))
+            .map(|entry| segment::read::<D>(dir, &manifest, entry))
             .collect();
         let mut shapes = Vec::new();
         let mut bytes = 0u64;

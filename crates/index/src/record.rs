@@ -6,7 +6,6 @@
 //! old record.
 
 use std::fmt;
-use std::fs::File;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
@@ -42,7 +41,8 @@ impl ContentHash {
 
     /// Hash of a file's contents, streamed.
     pub fn of_file(path: &Path) -> Result<Self> {
-        let mut f = File::open(path).map_err(|e| IndexError::io("could not open", path, e))?;
+        let mut f = crate::file::open_regular(path)
+            .map_err(|e| IndexError::io("could not open", path, e))?;
         let mut hasher = Xxh3Default::new();
         let mut buf = vec![0u8; 1 << 16];
         loop {
@@ -120,7 +120,11 @@ impl<const D: usize> ShapeRecord<D> {
         }
     }
 
-    /// Checks that the record can be stored: UTF-8 paths, finite numbers, an m×m layout.
+    /// Checks that the record can be stored: UTF-8 paths, finite numbers, a non-empty mesh,
+    /// component keypoint counts within the mesh's vertex count and area fractions in [0, 1],
+    /// an m×m layout. (The centre vertex is not checked against the vertex count: indexes of
+    /// format 1 hold synthetic records that break that rule, and readers check it where they use
+    /// it.)
     pub fn validate(&self) -> Result<()> {
         let bad = |reason: String| IndexError::InvalidRecord {
             path: self.path.clone(),
@@ -132,10 +136,16 @@ impl<const D: usize> ShapeRecord<D> {
         if self.canonical_path.as_os_str().is_empty() {
             return Err(bad("the canonical path is empty".into()));
         }
-        if !self.surface_area.is_finite() {
+        if !self.surface_area.is_finite() || self.surface_area < 0.0 {
             return Err(bad(format!(
-                "surface area {} is not finite",
+                "surface area {} is not a finite non-negative number",
                 self.surface_area
+            )));
+        }
+        if self.vertex_count == 0 || self.face_count == 0 {
+            return Err(bad(format!(
+                "a mesh of {} vertices and {} faces",
+                self.vertex_count, self.face_count
             )));
         }
         let m = self.components.len();
@@ -158,13 +168,26 @@ impl<const D: usize> ShapeRecord<D> {
                     "descriptor value {i} of component {c} is not finite"
                 )));
             }
-            if !comp.area_fraction.is_finite() {
-                return Err(bad(format!("area fraction of component {c} is not finite")));
+            if !(0.0..=AREA_FRACTION_MAX).contains(&comp.area_fraction) {
+                return Err(bad(format!(
+                    "area fraction {} of component {c} is not between 0 and 1",
+                    comp.area_fraction
+                )));
+            }
+            if comp.keypoint_count > self.vertex_count {
+                return Err(bad(format!(
+                    "component {c} has {} keypoints, the mesh {} vertices",
+                    comp.keypoint_count, self.vertex_count
+                )));
             }
         }
         Ok(())
     }
 }
+
+/// The largest area fraction a record may hold: a part is at most the whole surface, plus room
+/// for rounding in the sum of its triangle areas.
+const AREA_FRACTION_MAX: f32 = 1.0 + 1e-3;
 
 /// The canonical form of a source path used as a shape's identity: `fs::canonicalize` when the
 /// file exists; for a file that no longer exists (e.g. when removing it from the index), its

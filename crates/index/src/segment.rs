@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{CorruptKind, IndexError, Result};
 use crate::file::{self, KIND_SEGMENT};
-use crate::manifest::{SegmentEntry, bincode_config, segment_file_name};
+use crate::manifest::{Manifest, SegmentEntry, bincode_config, decode_bounded, segment_file_name};
 use crate::record::{ContentHash, ShapeId, ShapeRecord};
 use crate::{FORMAT_VERSION, MANIFEST_NAME};
 
@@ -81,13 +81,14 @@ pub(crate) fn dim_u32<const D: usize>() -> u32 {
     u32::try_from(D).unwrap_or(u32::MAX)
 }
 
-/// Reads a segment file listed in the manifest, checks it against `entry` and its own footer,
+/// Reads a segment file listed in `manifest`, checks it against `entry` and its own footer,
 /// and returns its bytes (footer checked) and decoded head plus the offset where records start.
 fn open_checked(
     dir: &Path,
+    manifest: &Manifest,
     entry: &SegmentEntry,
-    dim: u32,
 ) -> Result<(file::Opened, SegmentHead, usize, PathBuf)> {
+    let dim = manifest.dim;
     let path = dir.join(segment_file_name(entry.number));
     let bytes = match file::read_all(&path) {
         Ok(b) => b,
@@ -121,10 +122,9 @@ fn open_checked(
             },
         ));
     }
-    let (head, used): (SegmentHead, usize) =
-        bincode::serde::decode_from_slice(opened.payload(), bincode_config()).map_err(|e| {
-            IndexError::corrupt(&path, CorruptKind::Malformed(format!("segment head: {e}")))
-        })?;
+    let (head, used): (SegmentHead, usize) = decode_bounded(opened.payload()).map_err(|e| {
+        IndexError::corrupt(&path, CorruptKind::Malformed(format!("segment head: {e}")))
+    })?;
     let malformed = |msg: String| IndexError::corrupt(&path, CorruptKind::Malformed(msg));
     if head.dim != dim {
         return Err(IndexError::DimensionMismatch {
@@ -146,25 +146,46 @@ fn open_checked(
             entry.shapes
         )));
     }
+    if head.catalogue.is_empty() {
+        return Err(malformed("the segment holds no shape".into()));
+    }
     if !head.catalogue.windows(2).all(|w| w[0].id < w[1].id) {
         return Err(malformed("shape ids are not increasing".into()));
+    }
+    if let Some(c) = head.catalogue.last()
+        && c.id.0 >= manifest.next_shape_id
+    {
+        return Err(malformed(format!(
+            "shape id {} is beyond the manifest's counter {}",
+            c.id, manifest.next_shape_id
+        )));
     }
     Ok((opened, head, used, path))
 }
 
-/// Reads only the head of a listed segment (all checksums are still verified).
-pub fn read_head(dir: &Path, entry: &SegmentEntry, dim: u32) -> Result<SegmentHead> {
-    open_checked(dir, entry, dim).map(|(_, head, _, _)| head)
+/// Reads only the head of a segment listed in `manifest` (all checksums are still verified).
+pub fn read_head(dir: &Path, manifest: &Manifest, entry: &SegmentEntry) -> Result<SegmentHead> {
+    open_checked(dir, manifest, entry).map(|(_, head, _, _)| head)
 }
 
-/// Reads and fully decodes a listed segment, validating every record.
-pub fn read<const D: usize>(dir: &Path, entry: &SegmentEntry) -> Result<Segment<D>> {
-    let (opened, head, used, path) = open_checked(dir, entry, dim_u32::<D>())?;
+/// Reads and fully decodes a segment listed in `manifest`, validating every record.
+pub fn read<const D: usize>(
+    dir: &Path,
+    manifest: &Manifest,
+    entry: &SegmentEntry,
+) -> Result<Segment<D>> {
+    if manifest.dim != dim_u32::<D>() {
+        return Err(IndexError::DimensionMismatch {
+            path: dir.join(MANIFEST_NAME),
+            found: manifest.dim,
+            expected: dim_u32::<D>(),
+        });
+    }
+    let (opened, head, used, path) = open_checked(dir, manifest, entry)?;
     let malformed = |msg: String| IndexError::corrupt(&path, CorruptKind::Malformed(msg));
     let rest = &opened.payload()[used..];
     let (records, used2): (Vec<ShapeRecord<D>>, usize) =
-        bincode::serde::decode_from_slice(rest, bincode_config())
-            .map_err(|e| malformed(format!("records: {e}")))?;
+        decode_bounded(rest).map_err(|e| malformed(format!("records: {e}")))?;
     if used2 != rest.len() {
         return Err(malformed(format!(
             "{} unexpected bytes after the records",
@@ -205,6 +226,97 @@ pub fn read<const D: usize>(dir: &Path, entry: &SegmentEntry) -> Result<Segment<
 mod tests {
     use super::*;
     use crate::synthetic;
+
+    /// Writes segment 0 of `recs` with its payload changed by `patch` (and sealed again, so
+    /// the checksums hold), and the manifest listing it; returns the manifest.
+    fn write_patched<const D: usize>(
+        dir: &Path,
+        recs: &[ShapeRecord<D>],
+        patch: impl FnOnce(&mut Vec<u8>),
+    ) -> Manifest {
+        let ids: Vec<ShapeId> = (0..recs.len() as u64).map(ShapeId).collect();
+        let (bytes, _) = encode::<D>(0, &ids, recs).unwrap();
+        let mut payload = bytes[..bytes.len() - file::FOOTER_LEN].to_vec();
+        patch(&mut payload);
+        let (bytes, checksum) = file::seal(payload, KIND_SEGMENT, FORMAT_VERSION);
+        std::fs::write(dir.join(segment_file_name(0)), &bytes).unwrap();
+        let mut m = Manifest::empty(D as u32);
+        m.next_segment = 1;
+        m.next_shape_id = recs.len() as u64;
+        m.segments.push(SegmentEntry {
+            number: 0,
+            len: bytes.len() as u64,
+            checksum,
+            shapes: recs.len() as u64,
+            components: recs.iter().map(|r| r.components.len() as u64).sum(),
+        });
+        m
+    }
+
+    /// A length field made huge inside a segment whose checksums hold (a buggy writer, a
+    /// crafted file) is an error, never an allocation of that size or a panic: every 8-byte
+    /// window of the payload is overwritten in turn with huge values.
+    #[test]
+    fn huge_lengths_are_errors_not_allocations() {
+        const D: usize = 3;
+        let recs = synthetic::records::<D>(1, 0..2);
+        let dir = tempfile::tempdir().unwrap();
+        let (bytes, _) = encode::<D>(0, &[ShapeId(0), ShapeId(1)], &recs).unwrap();
+        let n = bytes.len() - file::FOOTER_LEN;
+        let mut failed = 0;
+        for at in 0..n - 8 {
+            for huge in [u64::MAX, 1 << 40, 1 << 33] {
+                let m = write_patched::<D>(dir.path(), &recs, |p| {
+                    p[at..at + 8].copy_from_slice(&huge.to_le_bytes())
+                });
+                // Some windows fall on values any bytes can hold (descriptor floats): those
+                // decode. What matters is that none panics or allocates its length.
+                let _ = read_head(dir.path(), &m, &m.segments[0]);
+                failed += usize::from(read::<D>(dir.path(), &m, &m.segments[0]).is_err());
+            }
+        }
+        assert!(
+            failed > n,
+            "only {failed} of {} patched files failed",
+            3 * n
+        );
+        // The catalogue's first path length (after dim, number, count and id): named in the
+        // message as a limit, not a failed allocation.
+        let m = write_patched::<D>(dir.path(), &recs, |p| {
+            p[28..36].copy_from_slice(&(1u64 << 50).to_le_bytes())
+        });
+        let e = read::<D>(dir.path(), &m, &m.segments[0]).unwrap_err();
+        assert!(matches!(e, IndexError::Corrupt { .. }), "{e}");
+        assert!(e.to_string().contains("segment head"), "{e}");
+    }
+
+    /// Records that decode but are inconsistent (an id beyond the manifest's counter, a
+    /// component with more keypoints than the mesh has vertices, an area fraction above 1) are
+    /// refused with the reason.
+    #[test]
+    fn inconsistent_records_are_refused() {
+        const D: usize = 3;
+        let dir = tempfile::tempdir().unwrap();
+        let recs = synthetic::records::<D>(1, 0..2);
+        let mut m = write_patched::<D>(dir.path(), &recs, |_| {});
+        assert!(read::<D>(dir.path(), &m, &m.segments[0]).is_ok());
+        m.next_shape_id = 1;
+        let e = read::<D>(dir.path(), &m, &m.segments[0]).unwrap_err();
+        assert!(
+            e.to_string().contains("beyond the manifest's counter"),
+            "{e}"
+        );
+        let mut bad = recs.clone();
+        bad[1].components[0].keypoint_count = bad[1].vertex_count + 1;
+        let m = write_patched::<D>(dir.path(), &bad, |_| {});
+        let e = read::<D>(dir.path(), &m, &m.segments[0]).unwrap_err();
+        assert!(e.to_string().contains("keypoints, the mesh"), "{e}");
+        let mut bad = recs.clone();
+        bad[0].components[1].area_fraction = 1.5;
+        let m = write_patched::<D>(dir.path(), &bad, |_| {});
+        let e = read::<D>(dir.path(), &m, &m.segments[0]).unwrap_err();
+        assert!(e.to_string().contains("not between 0 and 1"), "{e}");
+    }
 
     /// The segment size follows the byte layout documented in index/README.md at the workspace root exactly.
     #[test]

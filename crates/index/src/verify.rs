@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use crate::MANIFEST_NAME;
 use crate::error::{CorruptKind, IndexError, Result};
 use crate::file::{self, KIND_SEGMENT};
-use crate::manifest::{Manifest, parse_segment_file_name};
+use crate::manifest::{Manifest, parse_segment_file_name, segment_file_name};
 use crate::segment;
 use crate::writer::leftover_files;
 
@@ -49,8 +49,33 @@ impl VerifyReport {
 ///
 /// Returns `Err` only when `dir` is not an index at all ([`IndexError::NotAnIndex`]) or cannot
 /// be listed; every other finding goes into [`VerifyReport::problems`].
+///
+/// A writer may commit while `verify` reads: a segment listed in the manifest it read can be
+/// deleted by a later generation. When a listed segment is missing and the manifest has moved
+/// on meanwhile, the check starts again on the new manifest (like [`crate::IndexReader::open`]),
+/// so a concurrent write is not reported as damage.
 pub fn verify<const D: usize>(dir: impl AsRef<Path>) -> Result<VerifyReport> {
     let dir = dir.as_ref();
+    let mut attempt = 0;
+    loop {
+        attempt += 1;
+        let report = verify_once::<D>(dir)?;
+        let missing = report
+            .problems
+            .iter()
+            .any(|p| matches!(p, IndexError::MissingSegment { .. }));
+        if !missing || attempt >= crate::reader::OPEN_ATTEMPTS {
+            return Ok(report);
+        }
+        let moved = Manifest::read(dir, Some(segment::dim_u32::<D>()))
+            .is_ok_and(|m| Some(m.generation) != report.generation);
+        if !moved {
+            return Ok(report);
+        }
+    }
+}
+
+fn verify_once<const D: usize>(dir: &Path) -> Result<VerifyReport> {
     if !dir.join(MANIFEST_NAME).exists() {
         return Err(IndexError::NotAnIndex {
             dir: dir.to_path_buf(),
@@ -102,11 +127,19 @@ pub fn verify<const D: usize>(dir: impl AsRef<Path>) -> Result<VerifyReport> {
     let mut stored_ids = HashSet::new();
     let mut live_paths: HashMap<PathBuf, u64> = HashMap::new();
     for entry in &manifest.segments {
-        match segment::read::<D>(dir, entry) {
+        match segment::read::<D>(dir, &manifest, entry) {
             Ok(seg) => {
                 report.segments_ok += 1;
                 for (c, r) in seg.head.catalogue.iter().zip(&seg.records) {
-                    stored_ids.insert(c.id);
+                    if !stored_ids.insert(c.id) {
+                        report.problems.push(IndexError::corrupt(
+                            dir.join(segment_file_name(entry.number)),
+                            CorruptKind::Malformed(format!(
+                                "shape id {} is stored in an earlier segment too",
+                                c.id
+                            )),
+                        ));
+                    }
                     if manifest.is_tombstoned(c.id) {
                         continue;
                     }

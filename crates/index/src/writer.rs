@@ -185,7 +185,7 @@ impl<const D: usize> IndexWriter<D> {
         let mut live = HashMap::new();
         let mut live_per_segment = HashMap::new();
         for entry in &manifest.segments {
-            let head = segment::read_head(dir, entry, dim)?;
+            let head = segment::read_head(dir, &manifest, entry)?;
             let mut count = 0;
             for c in head.catalogue {
                 if manifest.is_tombstoned(c.id) {
@@ -392,7 +392,7 @@ impl<const D: usize> IndexWriter<D> {
             // find them (the files are still there).
             let mut dead_ids = Vec::new();
             for s in m.segments.iter().filter(|s| dead.contains(&s.number)) {
-                let head = segment::read_head(&self.dir, s, m.dim)?;
+                let head = segment::read_head(&self.dir, &m, s)?;
                 dead_ids.extend(head.catalogue.into_iter().map(|c| c.id));
             }
             dead_ids.sort_unstable();
@@ -463,7 +463,7 @@ impl<const D: usize> IndexWriter<D> {
         let per = shapes_per_segment.max(1);
         let mut live: Vec<(ShapeId, ShapeRecord<D>)> = Vec::new();
         for entry in &self.manifest.segments {
-            let seg = segment::read::<D>(&self.dir, entry)?;
+            let seg = segment::read::<D>(&self.dir, &self.manifest, entry)?;
             for (c, r) in seg.head.catalogue.into_iter().zip(seg.records) {
                 if !self.manifest.is_tombstoned(c.id) {
                     live.push((c.id, r));

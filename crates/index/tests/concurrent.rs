@@ -1,12 +1,13 @@
 //! Readers open and query while a writer adds, replaces and compacts: every open succeeds
-//! and sees a consistent snapshot (whole batches, records identical to what was written).
+//! and sees a consistent snapshot (whole batches, records identical to what was written), and
+//! `verify` running meanwhile reports no damage.
 
 #![allow(clippy::unwrap_used)] // helpers outside #[test] fns, in a test crate
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use keycomp_index::{IndexReader, IndexWriter, synthetic};
+use keycomp_index::{IndexReader, IndexWriter, synthetic, verify};
 
 const D: usize = 8;
 const SEED: u64 = 5;
@@ -57,6 +58,20 @@ fn readers_see_consistent_snapshots_during_add() {
         })
         .collect();
 
+    let verifier = {
+        let dir = dir.clone();
+        let done = done.clone();
+        std::thread::spawn(move || {
+            let mut runs = 0u64;
+            while !done.load(Ordering::SeqCst) {
+                let report = verify::<D>(&dir).unwrap();
+                assert!(report.is_ok(), "verify found damage: {:?}", report.problems);
+                runs += 1;
+            }
+            runs
+        })
+    };
+
     for b in 1..BATCHES {
         w.add_batch(synthetic::records::<D>(SEED, b * BATCH..(b + 1) * BATCH))
             .unwrap();
@@ -66,6 +81,7 @@ fn readers_see_consistent_snapshots_during_add() {
         }
     }
     done.store(true, Ordering::SeqCst);
+    eprintln!("verify: {} runs", verifier.join().unwrap());
     for h in readers {
         let (opens, n) = h.join().unwrap();
         assert!(opens > 0);
