@@ -21,7 +21,9 @@
 //!    H. Edelsbrunner, S. Guha and D. V. Nekhayev, "Topology preserving edge contraction",
 //!    1999), which keeps a manifold manifold and forbids fold-overs; when both ends have ≤ 3
 //!    neighbours (a tetrahedron); or when a face of u would flip or degenerate (new and old
-//!    normals at cosine < 0.2, or twice the new area below 10⁻¹⁰ of its longest squared edge).
+//!    normals at cosine < 0.2, or twice the new area below 10⁻¹⁰ of its longest squared edge);
+//!    or when u or v has more than 256 faces (not in the paper: a bound on the work per
+//!    collapse for meshes with vertices of huge valence).
 //! 4. After a collapse u → v: `Q_v += Q_u` and every edge of v is pending again (new
 //!    neighbours, new quadric); so is every edge of a neighbour of v with a refused edge (its
 //!    ring changed, so the refusal may no longer hold).
@@ -42,6 +44,16 @@ use std::collections::{BinaryHeap, HashSet};
 use std::hash::{BuildHasherDefault, Hasher};
 
 use crate::{Mesh, Point3, VertexId};
+
+/// Most faces a vertex may have and still be an end of a collapse. Not in Garland & Heckbert:
+/// it keeps every collapse's work bounded on meshes with vertices of huge valence (the centre
+/// of a fan-triangulated polygon of thousands of corners, a cone's apex), where each collapse
+/// next to such a vertex would otherwise scan its whole ring, and the decimation would take
+/// time quadratic in the valence. Such a *crowded* vertex stays, and its neighbours still
+/// collapse among themselves (a face they remove stays in the crowded vertex's face list,
+/// marked dead, instead of being searched for there). Ordinary meshes (valence about 6, below
+/// 30 after decimation) never reach the bound.
+const MAX_COLLAPSE_FACES: usize = 256;
 
 /// Smallest allowed cosine between a face normal before and after a collapse.
 const MIN_COS: f64 = 0.2;
@@ -231,6 +243,8 @@ struct Decimator<'a> {
     heap: BinaryHeap<Candidate>,
     /// Set when a collapse of an edge at this vertex was refused.
     refused: Vec<bool>,
+    /// Dead faces left in each vertex's `vfaces` (only crowded vertices have any).
+    dead_in_list: Vec<u32>,
     scratch: Vec<(VertexId, u32)>,
     scratch2: Vec<(VertexId, u32)>,
     ring_u: Vec<(VertexId, u32)>,
@@ -278,6 +292,7 @@ impl<'a> Decimator<'a> {
             initial: Vec::new(),
             heap: BinaryHeap::new(),
             refused: vec![false; n],
+            dead_in_list: vec![0; n],
             scratch: Vec::new(),
             scratch2: Vec::new(),
             ring_u: Vec::new(),
@@ -337,7 +352,8 @@ impl<'a> Decimator<'a> {
         let fs = &self.vfaces[v as usize];
         out.clear();
         if 2 * fs.len() > ids.len() {
-            for &f in fs {
+            // only a crowded vertex's list holds dead faces
+            for &f in fs.iter().filter(|&&f| self.face_alive[f as usize]) {
                 for &c in &self.faces[f as usize] {
                     if c != v {
                         out.push((c, 1));
@@ -400,7 +416,7 @@ impl<'a> Decimator<'a> {
 
     /// Collapses u into v if allowed; returns whether it did.
     fn try_collapse(&mut self, u: VertexId, v: VertexId) -> bool {
-        if self.protected[u as usize] {
+        if self.protected[u as usize] || self.crowded(u) || self.crowded(v) {
             return false;
         }
         let mut nu = std::mem::take(&mut self.ring_u);
@@ -477,6 +493,11 @@ impl<'a> Decimator<'a> {
         true
     }
 
+    /// Whether `v` has too many faces to take part in a collapse ([`MAX_COLLAPSE_FACES`]).
+    fn crowded(&self, v: VertexId) -> bool {
+        self.vfaces[v as usize].len() > MAX_COLLAPSE_FACES
+    }
+
     fn collapse(&mut self, u: VertexId, v: VertexId) {
         let faces_u = std::mem::take(&mut self.vfaces[u as usize]);
         for &f in &faces_u {
@@ -484,11 +505,17 @@ impl<'a> Decimator<'a> {
             if face.contains(&v) {
                 self.face_alive[f as usize] = false;
                 for c in face {
-                    if c != u {
-                        let list = &mut self.vfaces[c as usize];
-                        if let Some(k) = list.iter().position(|&g| g == f) {
-                            list.swap_remove(k);
-                        }
+                    if c == u {
+                        continue;
+                    }
+                    if self.crowded(c) {
+                        // searching its long list would cost its valence: count it dead instead
+                        self.dead_in_list[c as usize] += 1;
+                        continue;
+                    }
+                    let list = &mut self.vfaces[c as usize];
+                    if let Some(k) = list.iter().position(|&g| g == f) {
+                        list.swap_remove(k);
                     }
                 }
             } else {
@@ -509,7 +536,8 @@ impl<'a> Decimator<'a> {
         let mut ring = std::mem::take(&mut self.scratch);
         self.ring(v, &mut ring);
         for &(w, _) in &ring {
-            if self.refused[w as usize] {
+            // a crowded neighbour's collapses stay refused: its edges are not pushed again
+            if self.refused[w as usize] && !self.crowded(w) {
                 self.refused[w as usize] = false;
                 let mut wring = std::mem::take(&mut self.scratch2);
                 self.ring(w, &mut wring);
@@ -528,7 +556,9 @@ impl<'a> Decimator<'a> {
         for f in faces_u {
             // a vertex of a removed face can be left without faces only on non-manifold input
             for c in self.faces[f as usize] {
-                if self.alive[c as usize] && self.vfaces[c as usize].is_empty() {
+                if self.alive[c as usize]
+                    && self.vfaces[c as usize].len() == self.dead_in_list[c as usize] as usize
+                {
                     self.alive[c as usize] = false;
                     self.alive_count -= 1;
                 }

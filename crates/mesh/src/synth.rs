@@ -1,5 +1,6 @@
 //! Synthetic meshes generated in code, for tests, benchmarks and the demo: an icosphere, a torus,
-//! a flat grid, a height field, and a sphere with smooth protrusions whose tips are known.
+//! a flat grid, a height field, a sphere with smooth protrusions whose tips are known, and a
+//! double cone whose apices have any valence (a pathological input).
 
 use std::collections::HashMap;
 
@@ -93,6 +94,30 @@ pub fn torus(major: f64, minor: f64, nu: usize, nv: usize) -> Mesh {
             faces.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
             faces.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
         }
+    }
+    Mesh { positions, faces }
+}
+
+/// A closed double cone: `n` (at least 3) vertices on the unit circle in the z = 0 plane, then
+/// the apices (0, 0, 1) and (0, 0, −1), which have valence `n`. A pathological mesh for
+/// testing that no stage's work grows with the square of a vertex's valence; 2n faces,
+/// outward-oriented.
+pub fn bicone(n: usize) -> Mesh {
+    let n = n.max(3);
+    let mut positions: Vec<Point3<f64>> = (0..n)
+        .map(|i| {
+            let a = std::f64::consts::TAU * i as f64 / n as f64;
+            Point3::new(a.cos(), a.sin(), 0.0)
+        })
+        .collect();
+    positions.push(Point3::new(0.0, 0.0, 1.0));
+    positions.push(Point3::new(0.0, 0.0, -1.0));
+    let (top, bottom) = (n as VertexId, n as VertexId + 1);
+    let mut faces = Vec::with_capacity(2 * n);
+    for i in 0..n {
+        let (a, b) = (i as VertexId, ((i + 1) % n) as VertexId);
+        faces.push([a, b, top]);
+        faces.push([b, a, bottom]);
     }
     Mesh { positions, faces }
 }
