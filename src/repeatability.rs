@@ -1,8 +1,7 @@
 //! `keycomp bench repeatability`: the paper's repeatability experiment (Sipiran & Bustos 2013,
 //! Section 4) on generated transformations and real poses; see `keycomp_bench::experiment`.
 
-use std::fs;
-use std::io::{IsTerminal, Write};
+use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Duration;
@@ -244,25 +243,6 @@ impl Args {
     }
 }
 
-/// Writes `bytes` to `path` through a temporary sibling and a rename.
-fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let tmp = path.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
-    let result = (|| -> std::io::Result<()> {
-        let mut f = fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_data()?;
-        fs::rename(&tmp, path)
-    })();
-    if result.is_err() {
-        let _ = fs::remove_file(&tmp);
-    }
-    result.with_context(|| format!("{}: cannot write", path.display()))
-}
-
 /// `KC-1` → `kc1`, `KC-1*` → `kc1-modified`.
 fn file_tag(preset: &str) -> String {
     let base: String = preset
@@ -329,8 +309,7 @@ pub fn run_cmd(args: Args) -> Result<ExitCode> {
             .validate()
             .with_context(|| format!("invalid clustering options for {}", p.name))?;
     }
-    fs::create_dir_all(&args.out)
-        .with_context(|| format!("{}: cannot create the output folder", args.out.display()))?;
+    output::create_output_folder(&args.out)?;
 
     let mut builder = rayon::ThreadPoolBuilder::new();
     if let Some(n) = args.threads {
@@ -389,8 +368,8 @@ fn write_outputs(
 ) -> Result<()> {
     let out = &args.out;
     let json = serde_json::to_vec_pretty(report).context("cannot serialise the results")?;
-    write_atomic(&out.join("results.json"), &json)?;
-    write_atomic(&out.join("tables.md"), report.markdown().as_bytes())?;
+    output::write_bytes(&out.join("results.json"), &json)?;
+    output::write_bytes(&out.join("tables.md"), report.markdown().as_bytes())?;
     for pr in &report.presets {
         let curves: Vec<Curve> = pr
             .curves
@@ -410,7 +389,7 @@ fn write_outputs(
             }
         };
         let svg = repeatability_svg(&title, &report.thresholds, &curves);
-        write_atomic(
+        output::write_bytes(
             &out.join(format!("repeatability-{}.svg", file_tag(&pr.preset.name))),
             svg.as_bytes(),
         )?;
@@ -424,7 +403,7 @@ fn write_outputs(
         stats,
     };
     let json = serde_json::to_vec_pretty(&run).context("cannot serialise the run statistics")?;
-    write_atomic(&out.join("run.json"), &json)?;
+    output::write_bytes(&out.join("run.json"), &json)?;
     Ok(())
 }
 

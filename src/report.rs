@@ -25,6 +25,7 @@ use keycomp_retrieval::Ranked;
 use crate::colors;
 use crate::index_cmd::Reader;
 use crate::match_cmd::Analysed;
+use crate::output;
 
 /// Colour of a result's components that match nothing.
 const UNMATCHED: [u8; 3] = [110, 110, 110];
@@ -228,6 +229,10 @@ pub fn write_report(
     entries: &[QueryEntry],
     params: &ReportParams,
 ) -> Result<PathBuf> {
+    // A symbolic link to a folder stays a link: the report replaces the folder it points to.
+    let dir = &keycomp_mesh::io::output::follow_links(dir)
+        .with_context(|| format!("{}: cannot follow the link", dir.display()))?;
+    output::check_output_folder(dir)?;
     if dir.exists() {
         let is_empty = std::fs::read_dir(dir)
             .with_context(|| format!("{}: cannot read the report directory", dir.display()))?
@@ -248,8 +253,6 @@ pub fn write_report(
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    std::fs::create_dir_all(&parent)
-        .with_context(|| format!("{}: cannot create the directory", parent.display()))?;
     let tmp = parent.join(format!(".{name}.tmp-{}", std::process::id()));
     if tmp.exists() {
         std::fs::remove_dir_all(&tmp)

@@ -3,13 +3,13 @@
 //! in docs/transformations.md).
 
 use std::fmt::Write as _;
-use std::fs;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{Context, Result, bail};
-use keycomp_bench::{Kind, transform, write_map};
-use keycomp_mesh::{read_mesh, write_off};
+use keycomp_bench::{Kind, format_map, transform};
+use keycomp_mesh::io::output::Output;
+use keycomp_mesh::{read_mesh, write_off_to};
 use serde::Serialize;
 
 use crate::output;
@@ -67,30 +67,9 @@ struct Summary<'a> {
     unmapped: usize,
 }
 
-/// A temporary sibling of `path` (same folder, so renaming is atomic).
-fn temp_sibling(path: &Path, tag: &str) -> PathBuf {
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    path.with_file_name(format!(".{name}.{tag}-{}.tmp", std::process::id()))
-}
-
-/// Checks that `path`'s folder exists, so that nothing is computed for an output that cannot
-/// be written.
-fn check_folder(path: &Path) -> Result<()> {
-    let parent = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    if !parent.is_dir() {
-        bail!(
-            "{}: cannot write here: the folder {} does not exist",
-            path.display(),
-            parent.display()
-        );
-    }
-    Ok(())
+/// Resolves and checks an output path before anything is computed for it.
+fn output_at(path: &Path) -> Result<Output> {
+    Output::new(path).with_context(|| format!("{}: cannot write here", path.display()))
 }
 
 pub fn run(args: Args) -> Result<ExitCode> {
@@ -116,8 +95,14 @@ pub fn run(args: Args) -> Result<ExitCode> {
             map_path.display()
         );
     }
-    check_folder(out)?;
-    check_folder(&map_path)?;
+    let mesh_out = output_at(out)?;
+    let map_out = output_at(&map_path)?;
+    if mesh_out.target() == map_out.target() {
+        bail!(
+            "{}: the map and the mesh would be the same file; give --map another name",
+            map_path.display()
+        );
+    }
 
     let null = read_mesh(&args.mesh)?.mesh;
     let t = transform(&null, args.kind, args.strength, args.seed).with_context(|| {
@@ -129,26 +114,22 @@ pub fn run(args: Args) -> Result<ExitCode> {
         )
     })?;
 
-    // both files go to temporaries first and are renamed only when both are complete
-    let mesh_tmp = temp_sibling(out, "mesh");
-    let map_tmp = temp_sibling(&map_path, "map");
-    let written = (|| -> Result<()> {
-        write_off(&t.mesh, &mesh_tmp)
-            .with_context(|| format!("{}: cannot write", out.display()))?;
-        write_map(&t.map, null.num_vertices(), &map_tmp)
-            .with_context(|| format!("{}: cannot write", map_path.display()))?;
-        fs::rename(&mesh_tmp, out).with_context(|| format!("{}: cannot write", out.display()))?;
-        if let Err(e) = fs::rename(&map_tmp, &map_path) {
-            let _ = fs::remove_file(out);
-            return Err(e).with_context(|| format!("{}: cannot write", map_path.display()));
-        }
-        Ok(())
-    })();
-    if written.is_err() {
-        let _ = fs::remove_file(&mesh_tmp);
-        let _ = fs::remove_file(&map_tmp);
-    }
-    written?;
+    // Both files are staged (temporary files, or memory for a FIFO or device) and put in
+    // place only when both are complete.
+    let map_text = format_map(&t.map, null.num_vertices())
+        .with_context(|| format!("{}: cannot write", map_path.display()))?;
+    let mesh_staged = mesh_out
+        .stage(|w| write_off_to(&t.mesh, w))
+        .with_context(|| format!("{}: cannot write", out.display()))?;
+    let map_staged = map_out
+        .stage(|w| w.write_all(map_text.as_bytes()))
+        .with_context(|| format!("{}: cannot write", map_path.display()))?;
+    mesh_staged
+        .commit()
+        .with_context(|| format!("{}: cannot write", out.display()))?;
+    map_staged
+        .commit()
+        .with_context(|| format!("{}: cannot write", map_path.display()))?;
 
     let summary = Summary {
         null: args.mesh.display().to_string(),

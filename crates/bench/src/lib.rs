@@ -32,4 +32,6 @@ pub use evaluate::{
     CumulativeTable, Pullback, Record, TableRow, best_overlaps, cumulative_table,
     mean_overlap_table, overlap, repeatability, repeatability_curve, repeatability_table,
 };
-pub use transform::{Kind, MapFile, Transformed, read_map, transform, write_map};
+pub use transform::{
+    Kind, MapFile, Transformed, format_map, parse_map, read_map, transform, write_map,
+};

@@ -167,40 +167,13 @@ pub fn read_all(path: &Path) -> std::io::Result<Vec<u8>> {
 /// else with `InvalidInput` without opening it, since opening a FIFO blocks until a writer
 /// comes.
 pub fn open_regular(path: &Path) -> std::io::Result<File> {
-    let kind = fs::metadata(path)?.file_type();
-    if !kind.is_file() {
+    if !fs::metadata(path)?.is_file() {
         return Err(std::io::Error::new(
             std::io::ErrorKind::InvalidInput,
-            format!("not a regular file (a {})", file_kind_name(kind)),
+            "not a regular file",
         ));
     }
     File::open(path)
-}
-
-/// A short name for a kind of file, for messages.
-pub fn file_kind_name(kind: fs::FileType) -> &'static str {
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::FileTypeExt;
-        if kind.is_fifo() {
-            return "FIFO";
-        }
-        if kind.is_char_device() || kind.is_block_device() {
-            return "device";
-        }
-        if kind.is_socket() {
-            return "socket";
-        }
-    }
-    if kind.is_dir() {
-        "directory"
-    } else if kind.is_symlink() {
-        "symbolic link"
-    } else if kind.is_file() {
-        "regular file"
-    } else {
-        "special file"
-    }
 }
 
 static TEMP_COUNTER: AtomicU64 = AtomicU64::new(0);

@@ -1,10 +1,8 @@
 //! An RGBA image and its PNG encoding (8-bit sRGB; RGB when fully opaque, RGBA otherwise),
 //! written atomically (temporary file in the same directory, `sync_data`, rename).
 
-use std::fs::File;
-use std::io::{BufWriter, Write};
-use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::io::Write;
+use std::path::Path;
 
 use crate::RenderError;
 
@@ -69,28 +67,18 @@ impl Image {
         Ok(out)
     }
 
-    /// Writes the image as a PNG file (see [`Image::to_png_bytes`]) atomically: into a
-    /// temporary file in the same directory, synced, then renamed over `path`, so readers never
-    /// see a half-written file.
+    /// Writes the image as a PNG file (see [`Image::to_png_bytes`]) through
+    /// [`keycomp_mesh::io::output::Output`]: atomically (a temporary file in the same folder,
+    /// synced, renamed over `path`, so readers never see a half-written file), following
+    /// symbolic links, writing a FIFO or device in place and refusing a directory.
     pub fn write_png(&self, path: &Path) -> Result<(), RenderError> {
-        let io_err = |source| RenderError::Io {
-            path: path.to_path_buf(),
-            source,
-        };
-        let tmp = temp_path(path);
-        let result = (|| {
-            let file = File::create(&tmp).map_err(io_err)?;
-            let mut w = BufWriter::new(file);
-            self.encode(&mut w)?;
-            let file = w.into_inner().map_err(|e| io_err(e.into_error()))?;
-            file.sync_data().map_err(io_err)?;
-            std::fs::rename(&tmp, path).map_err(io_err)
-        })();
-        if result.is_err() {
-            // Best effort: the temporary file is ours and useless after a failure.
-            let _ = std::fs::remove_file(&tmp);
-        }
-        result
+        let bytes = self.to_png_bytes()?;
+        keycomp_mesh::io::output::write_file(path, |w| w.write_all(&bytes)).map_err(|source| {
+            RenderError::Io {
+                path: path.to_path_buf(),
+                source,
+            }
+        })
     }
 
     fn encode<W: Write>(&self, w: W) -> Result<(), RenderError> {
@@ -118,16 +106,4 @@ impl Image {
         writer.write_image_data(&data).map_err(enc_err)?;
         writer.finish().map_err(enc_err)
     }
-}
-
-/// `dir/.name.tmp-PID-N` beside `path`, so the final rename stays within one file system and
-/// concurrent writers (threads or processes) never share a temporary file.
-fn temp_path(path: &Path) -> PathBuf {
-    static COUNTER: AtomicU64 = AtomicU64::new(0);
-    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "image.png".to_owned());
-    path.with_file_name(format!(".{name}.tmp-{}-{n}", std::process::id()))
 }

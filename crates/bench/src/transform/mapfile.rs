@@ -11,12 +11,11 @@
 //! The header is mandatory and comes first. Blank lines and further lines starting with `#` are
 //! ignored; surrounding whitespace and CRLF line ends are accepted. Reading checks the version,
 //! the entry count against `transformed=` and every id against `null=`, and reports the path
-//! and 1-based line of any problem. Writing goes to a temporary file in the same directory,
-//! is synced, then renamed over the destination, so a reader never sees a partial file.
+//! and 1-based line of any problem. Writing goes through [`keycomp_mesh::io::output`]: to a
+//! temporary file in the same directory, synced, then renamed over the destination, so a reader
+//! never sees a partial file.
 
-use std::fs;
-use std::io::{BufWriter, Write};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use keycomp_mesh::VertexId;
 
@@ -44,6 +43,20 @@ pub fn write_map(
     null_vertices: usize,
     path: &Path,
 ) -> Result<(), BenchError> {
+    let text = format_map(map, null_vertices)?;
+    keycomp_mesh::io::output::write_file(path, |w| w.write_all(text.as_bytes())).map_err(|source| {
+        BenchError::Io {
+            path: path.to_path_buf(),
+            source,
+        }
+    })
+}
+
+/// The text of the correspondence file of `map` (as [`write_map`] writes it), for callers that
+/// manage the file.
+///
+/// Errors: [`BenchError::MapOutOfRange`] if an id is not below `null_vertices`.
+pub fn format_map(map: &[Option<VertexId>], null_vertices: usize) -> Result<String, BenchError> {
     if let Some((index, target)) = map
         .iter()
         .enumerate()
@@ -55,41 +68,20 @@ pub fn write_map(
             null_vertices,
         });
     }
-    let io = |source| BenchError::Io {
-        path: path.to_path_buf(),
-        source,
-    };
-    let tmp = temp_path(path);
-    let result = (|| -> std::io::Result<()> {
-        let file = fs::File::create(&tmp)?;
-        let mut w = BufWriter::new(file);
-        writeln!(
-            w,
-            "# {MAGIC} v{MAP_VERSION} transformed={} null={null_vertices}",
-            map.len()
-        )?;
-        for m in map {
-            match m {
-                Some(t) => writeln!(w, "{t}")?,
-                None => writeln!(w, "-1")?,
+    let mut text = format!(
+        "# {MAGIC} v{MAP_VERSION} transformed={} null={null_vertices}\n",
+        map.len()
+    );
+    for m in map {
+        match m {
+            Some(t) => {
+                text.push_str(&t.to_string());
+                text.push('\n');
             }
+            None => text.push_str("-1\n"),
         }
-        let file = w.into_inner().map_err(|e| e.into_error())?;
-        file.sync_data()?;
-        fs::rename(&tmp, path)
-    })();
-    if result.is_err() {
-        let _ = fs::remove_file(&tmp);
     }
-    result.map_err(io)
-}
-
-fn temp_path(path: &Path) -> PathBuf {
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "map".to_owned());
-    path.with_file_name(format!(".{name}.tmp-{}", std::process::id()))
+    Ok(text)
 }
 
 /// Reads a correspondence file written by [`write_map`].
@@ -98,14 +90,18 @@ fn temp_path(path: &Path) -> PathBuf {
 /// header, an unsupported version, a token that is not an id or `-1`, an id not below `null=`,
 /// or an entry count different from `transformed=`.
 pub fn read_map(path: &Path) -> Result<MapFile, BenchError> {
-    let text = fs::read_to_string(path).map_err(|source| BenchError::Io {
+    let io = |source| BenchError::Io {
         path: path.to_path_buf(),
         source,
-    })?;
+    };
+    let bytes = keycomp_mesh::io::output::read_input(path).map_err(io)?;
+    let text = String::from_utf8(bytes)
+        .map_err(|e| io(std::io::Error::new(std::io::ErrorKind::InvalidData, e)))?;
     parse_map(&text, path)
 }
 
-fn parse_map(text: &str, path: &Path) -> Result<MapFile, BenchError> {
+/// Parses the text of a correspondence file (see [`read_map`]); `path` only names it in errors.
+pub fn parse_map(text: &str, path: &Path) -> Result<MapFile, BenchError> {
     let err = |line: usize, message: String| BenchError::MapFormat {
         path: path.to_path_buf(),
         line,
@@ -210,6 +206,7 @@ fn parse_header(line: &str) -> Result<(usize, usize), String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::fs;
 
     #[test]
     fn round_trip() {

@@ -57,7 +57,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::BenchError;
 
-pub use mapfile::{MapFile, read_map, write_map};
+pub use mapfile::{MapFile, format_map, parse_map, read_map, write_map};
 
 /// The strongest transformation level.
 pub const MAX_STRENGTH: u8 = 5;

@@ -8,15 +8,18 @@
 //! it (a line for text formats, an element, facet or byte for binary ones) and why; no input makes
 //! a reader panic or allocate more than the file's size justifies.
 //!
-//! Writers ([`write_off`], [`write_ply_colored`]) write atomically: to a temporary file in the
-//! same directory, synced, then renamed over the target, so an error never leaves a half-written
-//! file.
+//! Readers accept regular files only (a FIFO would block, a device would never end). Writers
+//! ([`write_off`], [`write_ply_colored`]) go through [`output::Output`]: atomically, to a
+//! temporary file in the same folder, synced, then renamed over the target, so an error never
+//! leaves a half-written file; symbolic links are followed, FIFOs and devices written in place,
+//! directories refused.
 //!
 //! Each format's conventions are documented in its module (`off.rs`, `obj.rs`, `ply.rs`,
 //! `stl.rs` in this folder).
 
 mod obj;
 mod off;
+pub mod output;
 mod ply;
 mod stl;
 mod text;
@@ -31,7 +34,7 @@ use std::path::Path;
 
 use crate::{ErrorKind, Mesh, MeshError, Point3, Repairs, VertexId};
 
-pub use write::{write_off, write_ply_colored};
+pub use write::{write_off, write_off_to, write_ply_colored};
 
 /// A supported mesh file format.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -103,7 +106,7 @@ pub(crate) struct RawMesh {
 /// Errors carry the path; see the module documentation for what is checked.
 pub fn read_mesh(path: &Path) -> Result<LoadedMesh, MeshError> {
     let format = Format::from_path(path)?;
-    let bytes = std::fs::read(path).map_err(|e| MeshError::from(e).in_file(path))?;
+    let bytes = output::read_input(path).map_err(|e| MeshError::from(e).in_file(path))?;
     read_mesh_from_bytes(&bytes, format).map_err(|e| e.in_file(path))
 }
 

@@ -239,13 +239,32 @@ fn clean(text: &str) -> String {
     text.split_whitespace().collect::<Vec<_>>().join(" ")
 }
 
+/// A one-line reason for a header error. `ply-rs-bw` reports a line its grammar does not
+/// accept with the parser's internal state (`ParseError { location: LineCol … }`); that becomes
+/// the line and the column where it stopped making sense.
+fn header_reason(text: &str) -> String {
+    let Some((_, rest)) = text.split_once("String: '") else {
+        return clean(text);
+    };
+    let line = rest.split_once('\'').map_or(rest, |(l, _)| l);
+    let column = rest
+        .split_once("column: ")
+        .and_then(|(_, r)| r.split(|c: char| !c.is_ascii_digit()).next())
+        .and_then(|d| d.parse::<usize>().ok());
+    let line = show(line.trim());
+    match column {
+        Some(c) => format!("cannot read the line '{line}' (at character {c})"),
+        None => format!("cannot read the line '{line}'"),
+    }
+}
+
 fn header_error(e: ParseError) -> MeshError {
     let kind = if e.kind() == std::io::ErrorKind::UnexpectedEof {
         ErrorKind::Truncated {
             expected: "the header (no 'end_header' line)".into(),
         }
     } else {
-        ErrorKind::Syntax(format!("bad PLY header: {}", clean(&e.to_string())))
+        ErrorKind::Syntax(format!("bad PLY header: {}", header_reason(&e.to_string())))
     };
     let err = MeshError::new(kind);
     match e.line() {
@@ -609,6 +628,17 @@ mod tests {
         let (k, l) = err(b"ply\nformat ascii 1.0\nelement vertex 3\nproperty flot x\nend_header\n");
         assert!(matches!(k, ErrorKind::Syntax(_)), "{k:?}");
         assert_eq!(l, Some(Location::Line(4)));
+        // The parser's internal state is not shown; the line and where it breaks are.
+        let (k, l) = err(b"ply\nformat ascii 1.0\nelement vertex x\nend_header\n");
+        let ErrorKind::Syntax(m) = k else {
+            panic!("{k:?}")
+        };
+        assert_eq!(
+            m,
+            "bad PLY header: cannot read the line 'element vertex x' (at character 16)"
+        );
+        assert!(!m.contains("ParseError"), "{m}");
+        assert_eq!(l, Some(Location::Line(3)));
         let (k, _) = err(b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nend_header\n0 0\n");
         assert!(
             matches!(k, ErrorKind::Syntax(ref m) if m.contains("'z'")),

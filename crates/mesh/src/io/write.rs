@@ -1,19 +1,18 @@
 //! Writes meshes: ascii OFF (exact round trip) and binary little-endian PLY with per-vertex
 //! colours (for viewing results in MeshLab, Blender, CloudCompare, …).
 //!
-//! Both write atomically: the data goes to a temporary file in the target's directory
-//! (`.NAME.PID.N.tmp`), which is flushed, synced and renamed over the target. On any error the
-//! temporary file is removed and the target is left as it was.
+//! Both write through [`crate::io::output`]: atomically (a temporary file in the target's folder,
+//! synced, renamed over the target; on any error the target is left as it was), following
+//! symbolic links, writing FIFOs and devices in place and refusing directories.
 //!
 //! Coordinates are written with Rust's `{}` formatting of `f64`, the shortest text that parses
 //! back to the same number, so reading a written OFF file gives exactly the same mesh. The PLY
 //! stores coordinates as `double`, so it is exact too.
 
-use std::fs::{self, File, OpenOptions};
-use std::io::{self, BufWriter, Write};
-use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::io::{self, Write};
+use std::path::Path;
 
+use super::output::write_file;
 use crate::{ErrorKind, Mesh, MeshError};
 
 /// Writes `mesh` as ascii OFF.
@@ -21,17 +20,20 @@ use crate::{ErrorKind, Mesh, MeshError};
 /// The file is `OFF`, the counts `V F 0`, one `x y z` line per vertex and one `3 a b c` line per
 /// face; numbers round-trip exactly. Written atomically (see the module documentation).
 pub fn write_off(mesh: &Mesh, path: &Path) -> Result<(), MeshError> {
-    write_atomically(path, |w| {
-        writeln!(w, "OFF")?;
-        writeln!(w, "{} {} 0", mesh.positions.len(), mesh.faces.len())?;
-        for p in &mesh.positions {
-            writeln!(w, "{} {} {}", p.x, p.y, p.z)?;
-        }
-        for [a, b, c] in &mesh.faces {
-            writeln!(w, "3 {a} {b} {c}")?;
-        }
-        Ok(())
-    })
+    write_atomically(path, |w| write_off_to(mesh, w))
+}
+
+/// Writes `mesh` as ascii OFF (as [`write_off`]) to `w`, for callers that manage the file.
+pub fn write_off_to(mesh: &Mesh, w: &mut dyn Write) -> io::Result<()> {
+    writeln!(w, "OFF")?;
+    writeln!(w, "{} {} 0", mesh.positions.len(), mesh.faces.len())?;
+    for p in &mesh.positions {
+        writeln!(w, "{} {} {}", p.x, p.y, p.z)?;
+    }
+    for [a, b, c] in &mesh.faces {
+        writeln!(w, "3 {a} {b} {c}")?;
+    }
+    Ok(())
 }
 
 /// Writes `mesh` as binary little-endian PLY with one RGB colour per vertex.
@@ -75,47 +77,11 @@ pub fn write_ply_colored(mesh: &Mesh, colors: &[[u8; 3]], path: &Path) -> Result
     })
 }
 
-/// Makes temporary names unique within the process.
-static COUNTER: AtomicU64 = AtomicU64::new(0);
-
-/// Runs `body` on a buffered temporary file next to `path`, then syncs and renames it to `path`.
-pub(crate) fn write_atomically(
+/// Writes what `body` produces to `path` through [`super::output::Output`], the error naming
+/// the file.
+fn write_atomically(
     path: &Path,
-    body: impl FnOnce(&mut BufWriter<File>) -> io::Result<()>,
+    body: impl FnOnce(&mut dyn Write) -> io::Result<()>,
 ) -> Result<(), MeshError> {
-    let err = |e: io::Error| MeshError::from(e).in_file(path);
-    let Some(name) = path.file_name() else {
-        return Err(MeshError::new(ErrorKind::Other(
-            "cannot write: the path does not name a file".into(),
-        ))
-        .in_file(path));
-    };
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    let tmp = dir.join(format!(
-        ".{}.{}.{}.tmp",
-        name.to_string_lossy(),
-        std::process::id(),
-        COUNTER.fetch_add(1, Ordering::Relaxed)
-    ));
-    let file = OpenOptions::new()
-        .write(true)
-        .create_new(true)
-        .open(&tmp)
-        .map_err(err)?;
-    let result = (|| {
-        let mut w = BufWriter::new(file);
-        body(&mut w)?;
-        let file = w.into_inner().map_err(io::IntoInnerError::into_error)?;
-        file.sync_data()?;
-        drop(file);
-        fs::rename(&tmp, path)
-    })();
-    if let Err(e) = result {
-        let _ = fs::remove_file(&tmp);
-        return Err(err(e));
-    }
-    Ok(())
+    write_file(path, body).map_err(|e| MeshError::from(e).in_file(path))
 }
