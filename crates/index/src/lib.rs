@@ -76,3 +76,30 @@ pub const FOOTER_LEN: usize = file::FOOTER_LEN;
 
 /// The magic number in the last 8 bytes of every index file.
 pub const FOOTER_MAGIC: [u8; 8] = file::MAGIC;
+
+/// The decoders of the index files without their footer and checksum, for fuzzing: every
+/// check a reader makes after the checksum runs on the bytes given. A crafted or damaged file
+/// whose checksum holds reaches exactly this code, so it must return an error, never panic or
+/// allocate far beyond the bytes' size (the fuzz targets in `fuzz/` at the workspace root).
+pub mod fuzzing {
+    use std::path::Path;
+
+    use crate::Result;
+
+    /// Decodes a segment payload (a segment file without its 32-byte footer) with descriptors
+    /// of length `D`, checking it as a reader does against a manifest made up from its head.
+    pub fn decode_segment_payload<const D: usize>(payload: &[u8]) -> Result<()> {
+        crate::segment::decode_unsealed::<D>(payload).map(|_| ())
+    }
+
+    /// Decodes a manifest payload (a MANIFEST without its footer) of format `version`.
+    pub fn decode_manifest_payload(version: u32, payload: &[u8]) -> Result<()> {
+        crate::manifest::Manifest::from_payload(
+            Path::new("fuzzed-manifest"),
+            version,
+            payload,
+            None,
+        )
+        .map(|_| ())
+    }
+}

@@ -171,9 +171,19 @@ impl Manifest {
     /// Decodes manifest file bytes read from `path`.
     pub fn from_bytes(path: &Path, bytes: Vec<u8>, expected_dim: Option<u32>) -> Result<Self> {
         let opened = file::unseal(path, bytes, KIND_MANIFEST, FORMAT_VERSION)?;
-        let payload = opened.payload();
+        Self::from_payload(path, opened.version, opened.payload(), expected_dim)
+    }
+
+    /// Decodes and checks a manifest payload (the file without its footer) of format
+    /// `version`, whose footer was checked already.
+    pub fn from_payload(
+        path: &Path,
+        version: u32,
+        payload: &[u8],
+        expected_dim: Option<u32>,
+    ) -> Result<Self> {
         let malformed = |msg: String| IndexError::corrupt(path, CorruptKind::Malformed(msg));
-        let (m, used): (Manifest, usize) = if opened.version == 1 {
+        let (m, used): (Manifest, usize) = if version == 1 {
             let (m, used): (ManifestV1, usize) =
                 decode_bounded(payload).map_err(|e| malformed(e.to_string()))?;
             (m.into(), used)

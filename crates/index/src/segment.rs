@@ -88,7 +88,6 @@ fn open_checked(
     manifest: &Manifest,
     entry: &SegmentEntry,
 ) -> Result<(file::Opened, SegmentHead, usize, PathBuf)> {
-    let dim = manifest.dim;
     let path = dir.join(segment_file_name(entry.number));
     let bytes = match file::read_all(&path) {
         Ok(b) => b,
@@ -122,7 +121,21 @@ fn open_checked(
             },
         ));
     }
-    let (head, used): (SegmentHead, usize) = decode_bounded(opened.payload()).map_err(|e| {
+    let (head, used) = decode_head(&path, opened.payload(), manifest, entry)?;
+    Ok((opened, head, used, path))
+}
+
+/// Decodes the head at the start of a segment `payload` and checks it against the manifest
+/// and the segment's entry; returns it and the offset where the records start.
+fn decode_head(
+    path: &Path,
+    payload: &[u8],
+    manifest: &Manifest,
+    entry: &SegmentEntry,
+) -> Result<(SegmentHead, usize)> {
+    let dim = manifest.dim;
+    let path = path.to_path_buf();
+    let (head, used): (SegmentHead, usize) = decode_bounded(payload).map_err(|e| {
         IndexError::corrupt(&path, CorruptKind::Malformed(format!("segment head: {e}")))
     })?;
     let malformed = |msg: String| IndexError::corrupt(&path, CorruptKind::Malformed(msg));
@@ -160,7 +173,7 @@ fn open_checked(
             c.id, manifest.next_shape_id
         )));
     }
-    Ok((opened, head, used, path))
+    Ok((head, used))
 }
 
 /// Reads only the head of a segment listed in `manifest` (all checksums are still verified).
@@ -182,8 +195,19 @@ pub fn read<const D: usize>(
         });
     }
     let (opened, head, used, path) = open_checked(dir, manifest, entry)?;
-    let malformed = |msg: String| IndexError::corrupt(&path, CorruptKind::Malformed(msg));
-    let rest = &opened.payload()[used..];
+    let records = decode_records::<D>(&path, &opened.payload()[used..], &head, entry)?;
+    Ok(Segment { head, records })
+}
+
+/// Decodes the records that follow `head` in a segment payload (`rest`) and checks them
+/// against the head and the segment's entry.
+fn decode_records<const D: usize>(
+    path: &Path,
+    rest: &[u8],
+    head: &SegmentHead,
+    entry: &SegmentEntry,
+) -> Result<Vec<ShapeRecord<D>>> {
+    let malformed = |msg: String| IndexError::corrupt(path, CorruptKind::Malformed(msg));
     let (records, used2): (Vec<ShapeRecord<D>>, usize) =
         decode_bounded(rest).map_err(|e| malformed(format!("records: {e}")))?;
     if used2 != rest.len() {
@@ -219,6 +243,36 @@ pub fn read<const D: usize>(
             entry.components
         )));
     }
+    Ok(records)
+}
+
+/// Decodes and checks a whole segment payload (the file without its footer, whose checksum is
+/// not looked at) as a reader would, against a manifest made up from the head itself (its
+/// descriptor length, shape count and largest id): the entry point of the segment decoder's
+/// fuzz target, which reaches every check after the checksum.
+pub fn decode_unsealed<const D: usize>(payload: &[u8]) -> Result<Segment<D>> {
+    let path = Path::new("fuzzed-segment");
+    let malformed = |msg: String| IndexError::corrupt(path, CorruptKind::Malformed(msg));
+    let (head, used): (SegmentHead, usize) =
+        decode_bounded(payload).map_err(|e| malformed(format!("segment head: {e}")))?;
+    let mut manifest = Manifest::empty(dim_u32::<D>());
+    manifest.next_shape_id = head
+        .catalogue
+        .last()
+        .map_or(0, |c| c.id.0.saturating_add(1));
+    let rest = &payload[used..];
+    // The component count is the one thing the head does not tell: take the records' own.
+    let (records, _): (Vec<ShapeRecord<D>>, usize) =
+        decode_bounded(rest).map_err(|e| malformed(format!("records: {e}")))?;
+    let entry = SegmentEntry {
+        number: head.number,
+        len: payload.len() as u64,
+        checksum: 0,
+        shapes: head.catalogue.len() as u64,
+        components: records.iter().map(|r| r.components.len() as u64).sum(),
+    };
+    let (head, used) = decode_head(path, payload, &manifest, &entry)?;
+    let records = decode_records::<D>(path, &payload[used..], &head, &entry)?;
     Ok(Segment { head, records })
 }
 
@@ -288,6 +342,25 @@ mod tests {
         let e = read::<D>(dir.path(), &m, &m.segments[0]).unwrap_err();
         assert!(matches!(e, IndexError::Corrupt { .. }), "{e}");
         assert!(e.to_string().contains("segment head"), "{e}");
+    }
+
+    /// The fuzzing entry point decodes what the writer encodes, and refuses the same bytes cut
+    /// short.
+    #[test]
+    fn unsealed_payloads_decode() {
+        const D: usize = 3;
+        let recs = synthetic::records::<D>(4, 0..3);
+        let ids = [ShapeId(7), ShapeId(8), ShapeId(9)];
+        let (bytes, _) = encode::<D>(2, &ids, &recs).unwrap();
+        let payload = &bytes[..bytes.len() - file::FOOTER_LEN];
+        let seg = decode_unsealed::<D>(payload).unwrap();
+        assert_eq!(seg.records, recs);
+        assert_eq!(seg.head.number, 2);
+        assert!(decode_unsealed::<D>(&payload[..payload.len() - 1]).is_err());
+        assert!(
+            decode_unsealed::<4>(payload).is_err(),
+            "another descriptor length"
+        );
     }
 
     /// Records that decode but are inconsistent (an id beyond the manifest's counter, a

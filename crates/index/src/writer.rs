@@ -234,6 +234,11 @@ impl<const D: usize> IndexWriter<D> {
         self.live.is_empty()
     }
 
+    /// Canonical paths of the live shapes, in no particular order.
+    pub fn canonical_paths(&self) -> impl Iterator<Item = &Path> {
+        self.live.keys().map(Path::new)
+    }
+
     /// Id and content hash of the live shape with this canonical path, if any. Lets a caller
     /// skip describing a file whose hash is already indexed.
     pub fn lookup(&self, canonical: &Path) -> Option<(ShapeId, ContentHash)> {
