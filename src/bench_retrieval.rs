@@ -245,16 +245,22 @@ impl RecordCache {
             .ok()
             .and_then(|p| fs::read(p).ok())
             .map(|b| xxhash_rust::xxh3::xxh3_128(&b));
+        // A cache that cannot be made only costs time.
+        let made = fs::create_dir_all(&dir).is_ok();
         match exe {
-            Some(h) => RecordCache {
+            Some(h) if made => RecordCache {
                 dir: Some(dir),
                 salt: format!(
                     "{h:032x}|{}",
                     serde_json::to_string(params).unwrap_or_default()
                 ),
             },
-            None => {
-                eprintln!("warning: cannot read the running executable; detections are not cached");
+            _ => {
+                eprintln!(
+                    "warning: cannot read the running executable or create {}; detections are \
+                     not cached",
+                    dir.display()
+                );
                 RecordCache {
                     dir: None,
                     salt: String::new(),
@@ -290,20 +296,10 @@ impl RecordCache {
         let r = record_of(path, hash, params)?;
         if let (Some(e), Ok(bytes)) = (entry, serde_json::to_vec(&r)) {
             // a cache that cannot be written only costs time
-            let _ = write_atomic(&e, &bytes);
+            let _ = output::write_bytes(&e, &bytes);
         }
         Ok((r, false))
     }
-}
-
-fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    if let Some(dir) = path.parent() {
-        fs::create_dir_all(dir).with_context(|| format!("{}: cannot create", dir.display()))?;
-    }
-    let tmp = path.with_extension(format!("tmp{}", std::process::id()));
-    fs::write(&tmp, bytes).with_context(|| format!("{}: cannot write", tmp.display()))?;
-    fs::rename(&tmp, path).with_context(|| format!("{}: cannot write", path.display()))?;
-    Ok(())
 }
 
 /// How a [`Baseline`] describes a mesh.
@@ -801,8 +797,7 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
         seed: sub_seed(args.seed, "fpfh", 0),
         ..FpfhParams::default()
     };
-    fs::create_dir_all(&args.out)
-        .with_context(|| format!("{}: cannot create the output folder", args.out.display()))?;
+    output::create_output_folder(&args.out)?;
     let cache = RecordCache::new(
         args.cache.clone().unwrap_or_else(|| args.out.join("cache")),
         &params,
@@ -1050,7 +1045,7 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
                 r.components.len(),
                 None,
             ),
-            Err(e) => (Vec::new(), 0, Some(format!("{e:#}"))),
+            Err(e) => (Vec::new(), 0, Some(output::error_chain(e))),
         };
         let kc_order = complete_ranking(
             &returned,
@@ -1134,7 +1129,7 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
         partial_repeatability: repeatability_rows(&repeatability, args.area),
     };
     let json = serde_json::to_vec_pretty(&results).context("cannot serialise the results")?;
-    write_atomic(&args.out.join("results.json"), &json)?;
+    output::write_bytes(&args.out.join("results.json"), &json)?;
     for set in &results.query_sets {
         let mut curves = vec![Curve {
             label: "key-components".into(),
@@ -1156,7 +1151,7 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
             set.queries,
             stem(&args.collection)
         );
-        write_atomic(
+        output::write_bytes(
             &args.out.join(format!("pr-{}.svg", set.name)),
             pr_svg(&title, &curves).as_bytes(),
         )?;

@@ -95,7 +95,11 @@ fn index_files(index: &Path, files: &[PathBuf], params: &Profile) -> Result<(usi
         match r {
             None => unchanged += 1,
             Some(Ok(rec)) => records.push(rec),
-            Some(Err(e)) => bail!("{}: indexing failed: {e:#}", p.display()),
+            Some(Err(e)) => bail!(
+                "{}: indexing failed: {}",
+                p.display(),
+                crate::output::error_chain(&e)
+            ),
         }
     }
     let mut changed = 0;
@@ -111,6 +115,17 @@ pub fn run(args: Args) -> Result<ExitCode> {
     if args.per_class == 0 {
         bail!("--per-class must be at least 1");
     }
+    if args.vertices < keycomp_shapes::MIN_VERTICES {
+        bail!(
+            "--vertices must be at least {} (coarser grids cannot resolve the shapes' thinnest \
+             parts), got {}",
+            keycomp_shapes::MIN_VERTICES,
+            args.vertices
+        );
+    }
+    // Every check before anything is created.
+    crate::output::check_output_folder(&args.out)?;
+    crate::output::check_output_folder(&args.index)?;
     let t_all = Instant::now();
     let params = Profile::current(&args.detect.retrieval_params());
     let gen_params = GenerateParams {
@@ -120,6 +135,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
     };
     let collection_dir = args.out.join("collection");
     let query_dir = args.out.join("queries");
+    crate::output::create_output_folder(&args.out)?;
     for d in [&collection_dir, &query_dir] {
         std::fs::create_dir_all(d)
             .with_context(|| format!("{}: cannot create the directory", d.display()))?;

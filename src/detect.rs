@@ -59,7 +59,7 @@ pub struct DetectArgs {
     #[arg(long = "t", value_name = "T")]
     pub t: Option<f64>,
     /// Fewest keypoints in a cluster, N.
-    #[arg(long = "n", value_name = "N")]
+    #[arg(long = "n", value_name = "N", value_parser = crate::output::at_least_one)]
     pub n: Option<usize>,
     /// Scale N down for shapes with fewer than K keypoints: N·keypoints/K, at least 5 (not in
     /// the paper: lets meshes under ~20k vertices have key-components). 0 = the paper's fixed

@@ -223,7 +223,7 @@ pub struct AddArgs {
 /// Arguments of `keycomp index remove`.
 #[derive(Debug, clap::Args)]
 pub struct RemoveArgs {
-    /// Paths of indexed shapes.
+    /// Paths of indexed shapes, or folders: every indexed shape under a folder is removed.
     #[arg(required = true)]
     pub paths: Vec<PathBuf>,
     #[command(flatten)]
@@ -259,8 +259,11 @@ fn collect(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
                     }
                 }
             }
-        } else {
+        } else if p.exists() {
             out.push(p.clone()); // a named file is tried whatever its extension (clear error)
+        } else {
+            // Before the index is created or anything is analysed.
+            bail!("{}: no such file or folder", p.display());
         }
     }
     Ok(out)
@@ -347,6 +350,7 @@ fn add(args: AddArgs) -> Result<ExitCode> {
     if files.is_empty() {
         bail!("no mesh files (.off, .obj, .ply, .stl) found in the paths given");
     }
+    output::check_output_folder(&args.dir.index)?;
     let mut writer = Writer::create_or_open(&args.dir.index)?;
     // an index that has a profile keeps its description (its length unit included)
     let existing = serde_json::from_str::<Profile>(writer.profile()).ok();
@@ -368,7 +372,7 @@ fn add(args: AddArgs) -> Result<ExitCode> {
     writer.ensure_profile(&profile.to_text()?)?;
     let bar = progress(files.len() as u64, "indexing");
     let (mut added, mut replaced, mut unchanged) = (0usize, 0usize, 0usize);
-    let mut failed: Vec<(PathBuf, String)> = Vec::new();
+    let mut failed: Vec<String> = Vec::new();
     for chunk in files.chunks(BATCH) {
         let results = records_of_new(&writer, chunk, &profile, &bar);
         let mut records = Vec::new();
@@ -377,8 +381,9 @@ fn add(args: AddArgs) -> Result<ExitCode> {
                 None => unchanged += 1,
                 Some(Ok(rec)) => records.push(rec),
                 Some(Err(e)) => {
-                    bar.suspend(|| eprintln!("skipped {}: {e:#}", p.display()));
-                    failed.push((p, format!("{e:#}")));
+                    let why = naming(&p, &e);
+                    bar.suspend(|| eprintln!("skipped: {why}"));
+                    failed.push(why);
                 }
             }
         }
@@ -398,8 +403,8 @@ fn add(args: AddArgs) -> Result<ExitCode> {
         failed.len(),
         writer.len()
     )?;
-    for (p, e) in &failed {
-        writeln!(s, "  failed: {}: {e}", p.display())?;
+    for why in &failed {
+        writeln!(s, "  failed: {why}")?;
     }
     output::print_text(&s)?;
     Ok(if failed.is_empty() {
@@ -487,13 +492,46 @@ fn stats(args: DirArgs) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+/// The error `e` about `path` as one line that names the file once.
+fn naming(path: &Path, e: &anyhow::Error) -> String {
+    let why = output::error_chain(e);
+    let name = path.display().to_string();
+    if why.contains(&name) {
+        why
+    } else {
+        format!("{name}: {why}")
+    }
+}
+
 fn remove(args: RemoveArgs) -> Result<ExitCode> {
+    if !args.dir.index.join(keycomp_index::MANIFEST_NAME).is_file() {
+        bail!(
+            "{}: not a keycomp index (no MANIFEST); nothing to remove",
+            args.dir.index.display()
+        );
+    }
     let mut writer = Writer::create_or_open(&args.dir.index)?;
-    let n = writer.remove(&args.paths)?;
+    // A folder stands for every indexed shape under it, as `index add FOLDER` adds every mesh
+    // under it (also those whose files are gone since).
+    let mut paths: Vec<PathBuf> = Vec::new();
+    for p in &args.paths {
+        if p.is_dir() {
+            let root = canonical_path(p);
+            let mut under: Vec<PathBuf> = writer
+                .canonical_paths()
+                .filter(|c| c.starts_with(&root))
+                .map(Path::to_path_buf)
+                .collect();
+            under.sort();
+            paths.extend(under);
+        } else {
+            paths.push(p.clone());
+        }
+    }
+    let n = writer.remove(&paths)?;
     output::print_text(&format!(
-        "{}: removed {n} of {} paths ({} shapes left)\n",
+        "{}: removed {n} shapes ({} left)\n",
         args.dir.index.display(),
-        args.paths.len(),
         writer.len()
     ))?;
     Ok(if n == 0 {

@@ -38,7 +38,7 @@ pub struct HarrisArgs {
     #[arg(long, value_name = "F", group = "select")]
     pub fraction: Option<f64>,
     /// Keep this many keypoints, best first.
-    #[arg(long, value_name = "N", group = "select")]
+    #[arg(long, value_name = "N", group = "select", value_parser = crate::output::at_least_one)]
     pub count: Option<usize>,
     /// Neighbourhood: this many whole rings around each vertex.
     #[arg(long, value_name = "K", group = "nbhd")]

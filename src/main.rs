@@ -66,9 +66,25 @@ enum Command {
     Demo(demo::Args),
 }
 
+/// Parses the command line. Negative numbers are taken as values everywhere (no option name
+/// starts with a digit), so `-k -1` gets the option's own message ("expected a whole number of
+/// at least 1") instead of clap's advice to write `-- -1`.
+fn parse_cli() -> Cli {
+    fn allow_negatives(cmd: clap::Command) -> clap::Command {
+        cmd.allow_negative_numbers(true)
+            .mut_subcommands(allow_negatives)
+    }
+    let cmd = allow_negatives(<Cli as clap::CommandFactory>::command());
+    let matches = cmd.get_matches();
+    match <Cli as clap::FromArgMatches>::from_arg_matches(&matches) {
+        Ok(cli) => cli,
+        Err(e) => e.exit(),
+    }
+}
+
 fn main() -> ExitCode {
     // clap exits 2 on bad arguments by itself
-    let cli = Cli::parse();
+    let cli = parse_cli();
     let result = match cli.command {
         Command::Keypoints(args) => keypoints::run(args),
         Command::Detect(args) => detect::run(args),
@@ -86,7 +102,7 @@ fn main() -> ExitCode {
             if output::is_broken_pipe(&e) {
                 return ExitCode::SUCCESS;
             }
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", output::error_chain(&e));
             ExitCode::from(2)
         }
     }

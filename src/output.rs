@@ -2,8 +2,9 @@
 //! of output files.
 
 use std::io::{self, Write};
+use std::path::Path;
 
-use anyhow::Result;
+use anyhow::{Context, Result, bail};
 use serde::Serialize;
 
 /// Whether an error chain ends in a broken pipe (stdout closed by `head`, a pager, …).
@@ -36,5 +37,86 @@ pub fn at_least_one(s: &str) -> Result<usize, String> {
     match s.trim().parse::<usize>() {
         Ok(n) if n >= 1 => Ok(n),
         _ => Err(format!("'{s}': expected a whole number of at least 1")),
+    }
+}
+
+/// Writes `bytes` to the file `path` through [`keycomp_mesh::io::output`]: atomically, symbolic
+/// links followed, a FIFO or device written in place, a directory or a missing folder refused.
+pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<()> {
+    keycomp_mesh::io::output::write_file(path, |w| w.write_all(bytes))
+        .with_context(|| format!("{}: cannot write", path.display()))
+}
+
+/// Creates the output folder `dir` a command was told to fill (`--out`, `--report`, `--index`)
+/// if it does not exist. Its parent must exist: keycomp creates the folder it is given, never
+/// the folders above it, as it writes output files only into folders that exist.
+pub fn create_output_folder(dir: &Path) -> Result<()> {
+    match std::fs::metadata(dir) {
+        Ok(m) if m.is_dir() => return Ok(()),
+        Ok(_) => bail!("{}: exists and is not a folder", dir.display()),
+        Err(e) if e.kind() != io::ErrorKind::NotFound => {
+            return Err(e).with_context(|| format!("{}: cannot use as a folder", dir.display()));
+        }
+        Err(_) => {}
+    }
+    check_parent(dir)?;
+    std::fs::create_dir(dir).with_context(|| format!("{}: cannot create the folder", dir.display()))
+}
+
+/// Checks, before any work, that the folder `dir` exists or can be created by
+/// [`create_output_folder`] (its parent exists, nothing else is in its place).
+pub fn check_output_folder(dir: &Path) -> Result<()> {
+    match std::fs::metadata(dir) {
+        Ok(m) if m.is_dir() => Ok(()),
+        Ok(_) => bail!("{}: exists and is not a folder", dir.display()),
+        Err(_) => check_parent(dir),
+    }
+}
+
+fn check_parent(dir: &Path) -> Result<()> {
+    let parent = match dir.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    if !parent.is_dir() {
+        bail!(
+            "{}: cannot create the folder: {} does not exist (keycomp does not create parent \
+             folders)",
+            dir.display(),
+            parent.display()
+        );
+    }
+    Ok(())
+}
+
+/// The error and its causes on one line, `outer: inner: …`, as anyhow's `{:#}` prints them, but
+/// without a cause whose text the message before it already holds (an error that shows its
+/// source in its own message and also returns it as its source would otherwise say it twice:
+/// "No such file or directory (os error 2): No such file or directory (os error 2)").
+pub fn error_chain(e: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if line.is_empty() {
+            line = text;
+        } else if !line.contains(&text) {
+            line.push_str(": ");
+            line.push_str(&text);
+        }
+    }
+    line
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn error_chain_says_each_cause_once() {
+        let io = io::Error::new(io::ErrorKind::NotFound, "No such file");
+        let e = anyhow::Error::from(io).context("x.csv: cannot read: No such file");
+        assert_eq!(error_chain(&e), "x.csv: cannot read: No such file");
+        let e = anyhow::anyhow!("inner").context("outer");
+        assert_eq!(error_chain(&e), "outer: inner");
     }
 }

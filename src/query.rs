@@ -78,6 +78,10 @@ struct Report {
 }
 
 pub fn run(args: Args) -> Result<ExitCode> {
+    if let Some(dir) = &args.report {
+        // before any work: the report's folder must be creatable
+        crate::output::check_output_folder(dir)?;
+    }
     let t0 = Instant::now();
     let (reader, params) = open_reader_for_query(&args.index, &args.detect)?;
     let open_ms = t0.elapsed().as_secs_f64() * 1e3;

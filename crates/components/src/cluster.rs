@@ -53,7 +53,7 @@ use crate::ComponentsError;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct ClusterParams {
-    /// Intra-cluster distance `R` (≥ 0, ≤ `t`; default 0.15): a point joins its nearest cluster
+    /// Intra-cluster distance `R` (> 0, ≤ `t`; default 0.15): a point joins its nearest cluster
     /// when its centroid is at most this far. Raising it makes clusters wider and absorbs more
     /// waiting points; lowering it leaves more points waiting or unassigned.
     pub r: f64,
@@ -93,14 +93,14 @@ impl Default for ClusterParams {
 }
 
 impl ClusterParams {
-    /// Checks that every field is in range: `0 ≤ r ≤ t`, `t > 0`, both finite,
-    /// `iterations ≥ 1`.
+    /// Checks that every field is in range: `0 < r ≤ t`, both finite, `n_min ≥ 1`,
+    /// `iterations ≥ 1`, `n_reference ≥ 1` when set.
     pub fn validate(&self) -> Result<(), ComponentsError> {
-        if !(self.r.is_finite() && self.r >= 0.0) {
+        if !(self.r.is_finite() && self.r > 0.0) {
             return Err(ComponentsError::param(
                 "cluster.r",
                 self.r,
-                "must be a finite distance ≥ 0 (0.15 in the paper's KC-1)",
+                "must be a finite distance > 0 (0.15 in the paper's KC-1)",
             ));
         }
         if !(self.t.is_finite() && self.t > 0.0) {
@@ -115,6 +115,13 @@ impl ClusterParams {
                 "cluster.r",
                 self.r,
                 "must not exceed cluster.t (the paper uses T = 2R)",
+            ));
+        }
+        if self.n_min == 0 {
+            return Err(ComponentsError::param(
+                "cluster.n_min",
+                0,
+                "must be at least 1 keypoint (30 in the paper's KC-1)",
             ));
         }
         if self.iterations == 0 {
@@ -501,5 +508,10 @@ mod tests {
         assert!(adaptive_clustering(&[], &params(0.3, 0.2, 1)).is_err());
         assert!(adaptive_clustering(&[], &params(0.1, 0.0, 1)).is_err());
         assert!(adaptive_clustering(&[], &params(-0.1, 0.2, 1)).is_err());
+        // R = 0 and N = 0 would silently give no component: refused with the reason.
+        let e = adaptive_clustering(&[], &params(0.0, 0.2, 1)).unwrap_err();
+        assert!(e.to_string().contains("> 0"), "{e}");
+        let e = adaptive_clustering(&[], &params(0.1, 0.2, 0)).unwrap_err();
+        assert!(e.to_string().contains("at least 1 keypoint"), "{e}");
     }
 }
