@@ -94,7 +94,7 @@ detections are cached in OUT/cache.";
 /// Arguments of `keycomp bench retrieval`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Folder of mesh files (.off, .obj, .ply, .stl, searched recursively).
+    /// Folder of mesh files (.off, .obj, .ply, .stl, .gltf, .glb; searched recursively).
     #[arg(long, value_name = "DIR")]
     pub collection: PathBuf,
     /// Classes from a CSV file of `file,class` lines (file name, stem or path relative to the
@@ -195,7 +195,7 @@ fn parse_range(s: &str) -> Result<(f64, f64), String> {
     }
 }
 
-const EXTENSIONS: [&str; 4] = ["off", "obj", "ply", "stl"];
+const EXTENSIONS: [&str; 6] = ["off", "obj", "ply", "stl", "gltf", "glb"];
 
 /// Supported mesh files below `dir`, sorted by path.
 fn list_meshes(dir: &Path) -> Result<Vec<PathBuf>> {
@@ -746,7 +746,7 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
     let files = list_meshes(&args.collection)?;
     if files.len() < 2 {
         bail!(
-            "{}: found {} mesh file(s) (.off, .obj, .ply, .stl); retrieval needs at least 2",
+            "{}: found {} mesh file(s) (.off, .obj, .ply, .stl, .gltf, .glb); retrieval needs at least 2",
             args.collection.display(),
             files.len()
         );

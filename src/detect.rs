@@ -25,7 +25,7 @@ pub const EXAMPLES: &str = "Examples:
 /// Arguments of `keycomp detect`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Mesh file (.off, .obj, .ply, .stl).
+    /// Mesh file (.off, .obj, .ply, .stl, .gltf, .glb).
     pub mesh: PathBuf,
     #[command(flatten)]
     pub detect: DetectArgs,

@@ -230,7 +230,7 @@ pub struct RemoveArgs {
     pub dir: DirArgs,
 }
 
-const EXTENSIONS: [&str; 4] = ["off", "obj", "ply", "stl"];
+const EXTENSIONS: [&str; 6] = ["off", "obj", "ply", "stl", "gltf", "glb"];
 
 fn is_mesh(p: &Path) -> bool {
     p.extension()
@@ -348,7 +348,7 @@ fn add(args: AddArgs) -> Result<ExitCode> {
     let params = args.detect.retrieval_params();
     let files = collect(&args.paths)?;
     if files.is_empty() {
-        bail!("no mesh files (.off, .obj, .ply, .stl) found in the paths given");
+        bail!("no mesh files (.off, .obj, .ply, .stl, .gltf, .glb) found in the paths given");
     }
     output::check_output_folder(&args.dir.index)?;
     let mut writer = Writer::create_or_open(&args.dir.index)?;

@@ -19,7 +19,7 @@ pub const EXAMPLES: &str = "Examples:
 /// Arguments of `keycomp keypoints`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Mesh file (.off, .obj, .ply, .stl).
+    /// Mesh file (.off, .obj, .ply, .stl, .gltf, .glb).
     pub mesh: PathBuf,
     #[command(flatten)]
     pub harris: HarrisArgs,

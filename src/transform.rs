@@ -26,7 +26,7 @@ vertex it comes from, or -1. Output meshes are written as OFF.";
 /// Arguments of `keycomp transform`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// The null mesh (.off, .obj, .ply, .stl).
+    /// The null mesh (.off, .obj, .ply, .stl, .gltf, .glb).
     pub mesh: PathBuf,
     /// Transformation: holes, microholes, noise, shotnoise, scale, localscale, topology,
     /// sampling.

@@ -91,11 +91,11 @@ impl fmt::Display for ErrorKind {
             ErrorKind::Io(e) => write!(f, "{e}"),
             ErrorKind::UnknownFormat { extension } if extension.is_empty() => write!(
                 f,
-                "no file extension: cannot tell the format (supported: .off, .obj, .ply, .stl)"
+                "no file extension: cannot tell the format (supported: .off, .obj, .ply, .stl, .gltf, .glb)"
             ),
             ErrorKind::UnknownFormat { extension } => write!(
                 f,
-                "unknown mesh format '.{extension}' (supported: .off, .obj, .ply, .stl)"
+                "unknown mesh format '.{extension}' (supported: .off, .obj, .ply, .stl, .gltf, .glb)"
             ),
             ErrorKind::Empty => write!(f, "the file is empty"),
             ErrorKind::Truncated { expected } => {

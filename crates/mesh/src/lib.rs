@@ -18,7 +18,8 @@ mod topology;
 
 pub use error::{ErrorKind, Location, MeshError};
 pub use io::{
-    Format, LoadedMesh, read_mesh, read_mesh_from_bytes, write_off, write_off_to, write_ply_colored,
+    Format, LoadedMesh, read_mesh, read_mesh_from_bytes, write_glb, write_off, write_off_to,
+    write_ply_colored,
 };
 pub use nalgebra::{Point3, Vector3};
 pub use topology::Topology;

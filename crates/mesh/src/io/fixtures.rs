@@ -303,3 +303,108 @@ pub(crate) fn stl_binary(m: &Mesh) -> Vec<u8> {
     out[..6].copy_from_slice(b"solid ");
     out
 }
+
+/// Where a test glTF keeps its one buffer.
+pub(crate) enum GltfBuffer<'a> {
+    /// In the GLB's BIN chunk (wrap the JSON with [`glb`]).
+    Bin,
+    /// In a `data:` URI, base64.
+    DataUri,
+    /// In a file of this name beside the glTF.
+    File(&'a str),
+}
+
+/// A glTF document (JSON) and its buffer: one mesh of one primitive (`mode`: 4 triangles, 5
+/// strip, 6 fan, 1 lines) with float positions and, when given, `u32` indices; `nodes` is the
+/// JSON array of nodes (each `"mesh": 0` node draws it), `scene_nodes` the default scene's
+/// root list, `required` the `extensionsRequired` array.
+pub(crate) fn gltf_doc(
+    positions: &[[f32; 3]],
+    indices: Option<&[u32]>,
+    mode: u32,
+    nodes: &str,
+    scene_nodes: &str,
+    buffer: GltfBuffer,
+    required: &str,
+) -> (String, Vec<u8>) {
+    let mut bin = Vec::new();
+    for p in positions {
+        for c in p {
+            bin.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    let pos_len = bin.len();
+    for &i in indices.unwrap_or(&[]) {
+        bin.extend_from_slice(&i.to_le_bytes());
+    }
+    let (mut lo, mut hi) = ([f32::MAX; 3], [f32::MIN; 3]);
+    for p in positions {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    let uri = match buffer {
+        GltfBuffer::Bin => String::new(),
+        GltfBuffer::DataUri => {
+            use base64::Engine as _;
+            format!(
+                r#","uri":"data:application/octet-stream;base64,{}""#,
+                base64::engine::general_purpose::STANDARD.encode(&bin)
+            )
+        }
+        GltfBuffer::File(name) => format!(r#","uri":"{name}""#),
+    };
+    let (index_view, index_accessor, index_ref) = match indices {
+        Some(ix) => (
+            format!(
+                r#",{{"buffer":0,"byteOffset":{pos_len},"byteLength":{}}}"#,
+                4 * ix.len()
+            ),
+            format!(
+                r#",{{"bufferView":1,"componentType":5125,"count":{},"type":"SCALAR"}}"#,
+                ix.len()
+            ),
+            r#","indices":1"#.to_string(),
+        ),
+        None => (String::new(), String::new(), String::new()),
+    };
+    let json = format!(
+        r#"{{"asset":{{"version":"2.0"}},"extensionsRequired":{required},"extensionsUsed":{required},"scene":0,"scenes":[{{"nodes":{scene_nodes}}}],"nodes":{nodes},"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}}{index_ref},"mode":{mode}}}]}}],"buffers":[{{"byteLength":{}{uri}}}],"bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":{pos_len}}}{index_view}],"accessors":[{{"bufferView":0,"componentType":5126,"count":{},"type":"VEC3","min":[{},{},{}],"max":[{},{},{}]}}{index_accessor}]}}"#,
+        bin.len(),
+        positions.len(),
+        lo[0],
+        lo[1],
+        lo[2],
+        hi[0],
+        hi[1],
+        hi[2],
+    );
+    (json, bin)
+}
+
+/// `json` and `bin` as one GLB file (the container of `write_glb`, which the reader's tests
+/// do not otherwise depend on).
+pub(crate) fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
+    super::write::glb_container(json.as_bytes(), bin)
+}
+
+/// A GLB of `m` (triangles, indexed, one node at the origin): positions rounded to `f32`.
+pub(crate) fn glb_of(m: &Mesh) -> Vec<u8> {
+    let positions: Vec<[f32; 3]> = m
+        .positions
+        .iter()
+        .map(|p| [p.x as f32, p.y as f32, p.z as f32])
+        .collect();
+    let indices: Vec<u32> = m.faces.iter().flatten().copied().collect();
+    let (json, bin) = gltf_doc(
+        &positions,
+        Some(&indices),
+        4,
+        r#"[{"mesh":0}]"#,
+        "[0]",
+        GltfBuffer::Bin,
+        "[]",
+    );
+    glb(&json, &bin)
+}

@@ -1,5 +1,5 @@
 //! Reading and writing mesh files. The format is chosen by the file's extension
-//! (case-insensitive): `.off`, `.obj`, `.ply`, `.stl`.
+//! (case-insensitive): `.off`, `.obj`, `.ply`, `.stl`, `.gltf`, `.glb`.
 //!
 //! Every reader parses the file into raw vertices and triangles and then validates them with
 //! [`Mesh::from_raw`]: vertex ids are the file's own vertex order (never welded or reordered,
@@ -15,8 +15,9 @@
 //! directories refused.
 //!
 //! Each format's conventions are documented in its module (`off.rs`, `obj.rs`, `ply.rs`,
-//! `stl.rs` in this folder).
+//! `stl.rs`, `gltf.rs` in this folder).
 
+mod gltf;
 mod obj;
 mod off;
 pub mod output;
@@ -34,7 +35,7 @@ use std::path::Path;
 
 use crate::{ErrorKind, Mesh, MeshError, Point3, Repairs, VertexId};
 
-pub use write::{write_off, write_off_to, write_ply_colored};
+pub use write::{write_glb, write_off, write_off_to, write_ply_colored};
 
 /// A supported mesh file format.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -47,6 +48,8 @@ pub enum Format {
     Ply,
     /// STL, ascii or binary.
     Stl,
+    /// glTF 2.0: `.gltf` (JSON with `.bin` or `data:` buffers) or `.glb` (binary).
+    Gltf,
 }
 
 impl Format {
@@ -57,6 +60,7 @@ impl Format {
             "obj" => Some(Format::Obj),
             "ply" => Some(Format::Ply),
             "stl" => Some(Format::Stl),
+            "gltf" | "glb" => Some(Format::Gltf),
             _ => None,
         }
     }
@@ -79,6 +83,7 @@ impl Format {
             Format::Obj => "obj",
             Format::Ply => "ply",
             Format::Stl => "stl",
+            Format::Gltf => "gltf",
         }
     }
 }
@@ -107,15 +112,31 @@ pub(crate) struct RawMesh {
 pub fn read_mesh(path: &Path) -> Result<LoadedMesh, MeshError> {
     let format = Format::from_path(path)?;
     let bytes = output::read_input(path).map_err(|e| MeshError::from(e).in_file(path))?;
-    read_mesh_from_bytes(&bytes, format).map_err(|e| e.in_file(path))
+    let folder = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    read_bytes(&bytes, format, Some(folder)).map_err(|e| e.in_file(path))
 }
 
 /// Parses and validates the contents of a mesh file in the given format. Errors carry no path
 /// (see [`read_mesh`]); useful for data not in a file, tests and fuzzing.
+///
+/// A glTF file whose buffers are separate `.bin` files cannot be read this way (there is no
+/// folder to find them in); GLB and glTF with `data:` buffers can.
 pub fn read_mesh_from_bytes(bytes: &[u8], format: Format) -> Result<LoadedMesh, MeshError> {
+    read_bytes(bytes, format, None)
+}
+
+/// [`read_mesh_from_bytes`], with the folder where a glTF file's buffers are.
+fn read_bytes(
+    bytes: &[u8],
+    format: Format,
+    folder: Option<&Path>,
+) -> Result<LoadedMesh, MeshError> {
     // text formats saved by some editors start with a UTF-8 byte-order mark: skip it
     let bytes = match format {
-        Format::Off | Format::Obj | Format::Ply => {
+        Format::Off | Format::Obj | Format::Ply | Format::Gltf => {
             bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes)
         }
         Format::Stl => bytes,
@@ -125,6 +146,7 @@ pub fn read_mesh_from_bytes(bytes: &[u8], format: Format) -> Result<LoadedMesh, 
         Format::Obj => obj::read_obj(bytes),
         Format::Ply => ply::read_ply(bytes),
         Format::Stl => stl::read_stl(bytes),
+        Format::Gltf => gltf::read_gltf(bytes, folder),
     }?;
     let (mesh, repairs) = Mesh::from_raw(raw.positions, raw.faces)?;
     Ok(LoadedMesh {

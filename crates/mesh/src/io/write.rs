@@ -77,6 +77,82 @@ pub fn write_ply_colored(mesh: &Mesh, colors: &[[u8; 3]], path: &Path) -> Result
     })
 }
 
+/// Writes `mesh` as a binary glTF 2.0 file (GLB): one mesh of one indexed triangle primitive,
+/// drawn by one node at the origin; positions as 32-bit floats (rounded from the mesh's
+/// `f64`), indices as 32-bit integers, vertex ids kept. Written atomically (see the module
+/// documentation).
+pub fn write_glb(mesh: &Mesh, path: &Path) -> Result<(), MeshError> {
+    write_atomically(path, |w| w.write_all(&glb_bytes(mesh)))
+}
+
+/// The bytes of [`write_glb`]'s file.
+fn glb_bytes(mesh: &Mesh) -> Vec<u8> {
+    let mut bin = Vec::with_capacity(12 * mesh.positions.len() + 12 * mesh.faces.len());
+    let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+    for p in &mesh.positions {
+        let c = [p.x as f32, p.y as f32, p.z as f32];
+        for k in 0..3 {
+            lo[k] = lo[k].min(c[k]);
+            hi[k] = hi[k].max(c[k]);
+            bin.extend_from_slice(&c[k].to_le_bytes());
+        }
+    }
+    let positions_len = bin.len();
+    for f in &mesh.faces {
+        for v in f {
+            bin.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    let json = format!(
+        concat!(
+            r#"{{"asset":{{"version":"2.0","generator":"keycomp"}},"scene":0,"scenes":[{{"nodes":[0]}}],"#,
+            r#""nodes":[{{"mesh":0}}],"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":1,"mode":4}}]}}],"#,
+            r#""buffers":[{{"byteLength":{}}}],"bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":{},"target":34962}},"#,
+            r#"{{"buffer":0,"byteOffset":{},"byteLength":{},"target":34963}}],"#,
+            r#""accessors":[{{"bufferView":0,"componentType":5126,"count":{},"type":"VEC3","min":[{:?},{:?},{:?}],"max":[{:?},{:?},{:?}]}},"#,
+            r#"{{"bufferView":1,"componentType":5125,"count":{},"type":"SCALAR"}}]}}"#
+        ),
+        bin.len(),
+        positions_len,
+        positions_len,
+        bin.len() - positions_len,
+        mesh.positions.len(),
+        lo[0],
+        lo[1],
+        lo[2],
+        hi[0],
+        hi[1],
+        hi[2],
+        3 * mesh.faces.len(),
+    );
+    glb_container(json.as_bytes(), &bin)
+}
+
+/// A GLB file of one JSON chunk and one BIN chunk (left out when `bin` is empty), each padded
+/// to 4 bytes (JSON with spaces, BIN with zeros), after the 12-byte header.
+pub(crate) fn glb_container(json: &[u8], bin: &[u8]) -> Vec<u8> {
+    let pad = |b: &[u8], with: u8| {
+        let mut v = b.to_vec();
+        v.resize(b.len().div_ceil(4) * 4, with);
+        v
+    };
+    let (json, bin) = (pad(json, b' '), pad(bin, 0));
+    let total = 12 + 8 + json.len() + if bin.is_empty() { 0 } else { 8 + bin.len() };
+    let mut out = Vec::with_capacity(total);
+    out.extend_from_slice(b"glTF");
+    out.extend_from_slice(&2u32.to_le_bytes());
+    out.extend_from_slice(&(total as u32).to_le_bytes());
+    out.extend_from_slice(&(json.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"JSON");
+    out.extend_from_slice(&json);
+    if !bin.is_empty() {
+        out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+        out.extend_from_slice(b"BIN\0");
+        out.extend_from_slice(&bin);
+    }
+    out
+}
+
 /// Writes what `body` produces to `path` through [`super::output::Output`], the error naming
 /// the file.
 fn write_atomically(

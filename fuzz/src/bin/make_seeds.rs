@@ -1,0 +1,133 @@
+//! Writes the starting corpus of every fuzz target into `fuzz/seeds/TARGET/` (small meshes in
+//! each format, an index's segment and manifest payloads, a map file), all made here in code.
+//! Run with `cargo run --bin make_seeds` from `fuzz/`.
+
+use std::fs;
+use std::path::Path;
+
+const D: usize = keycomp_describe::DIM;
+
+fn put(target: &str, name: &str, bytes: &[u8]) {
+    let dir = Path::new("seeds").join(target);
+    fs::create_dir_all(&dir).expect("create the seed folder");
+    fs::write(dir.join(name), bytes).expect("write a seed");
+}
+
+/// A tetrahedron's corners and faces.
+const V: [[f32; 3]; 4] = [
+    [0.0, 0.0, 0.0],
+    [1.0, 0.0, 0.0],
+    [0.0, 1.0, 0.0],
+    [0.0, 0.0, 1.0],
+];
+const F: [[u32; 3]; 4] = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]];
+
+fn main() {
+    let mut off = String::from("OFF\n4 4 0\n");
+    let mut obj = String::from("# tetrahedron\n");
+    let mut ply = String::from(
+        "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n\
+         property float z\nelement face 4\nproperty list uchar int vertex_indices\nend_header\n",
+    );
+    for v in V {
+        off += &format!("{} {} {}\n", v[0], v[1], v[2]);
+        obj += &format!("v {} {} {}\n", v[0], v[1], v[2]);
+        ply += &format!("{} {} {}\n", v[0], v[1], v[2]);
+    }
+    for f in F {
+        off += &format!("3 {} {} {}\n", f[0], f[1], f[2]);
+        obj += &format!("f {} {} {}\n", f[0] + 1, f[1] + 1, f[2] + 1);
+        ply += &format!("3 {} {} {}\n", f[0], f[1], f[2]);
+    }
+    put("mesh_off", "tetra.off", off.as_bytes());
+    put(
+        "mesh_off",
+        "quad.off",
+        b"OFF\n# a square as one polygon\n4 1 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n",
+    );
+    put("mesh_obj", "tetra.obj", obj.as_bytes());
+    put(
+        "mesh_obj",
+        "quad.obj",
+        b"o a\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//1 4//1\n",
+    );
+    put("mesh_ply", "tetra.ply", ply.as_bytes());
+    let mut bin = b"ply\nformat binary_little_endian 1.0\nelement vertex 4\nproperty float x\n\
+property float y\nproperty float z\nelement face 4\nproperty list uchar int vertex_indices\n\
+end_header\n"
+        .to_vec();
+    for v in V {
+        for c in v {
+            bin.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    for f in F {
+        bin.push(3);
+        for c in f {
+            bin.extend_from_slice(&(c as i32).to_le_bytes());
+        }
+    }
+    put("mesh_ply", "tetra-binary.ply", &bin);
+    let mut stl = String::from("solid t\n");
+    let mut stl_bin = vec![0u8; 80];
+    stl_bin.extend_from_slice(&(F.len() as u32).to_le_bytes());
+    for f in F {
+        stl += " facet normal 0 0 0\n  outer loop\n";
+        stl_bin.extend_from_slice(&[0u8; 12]);
+        for c in f {
+            let v = V[c as usize];
+            stl += &format!("   vertex {} {} {}\n", v[0], v[1], v[2]);
+            for x in v {
+                stl_bin.extend_from_slice(&x.to_le_bytes());
+            }
+        }
+        stl += "  endloop\n endfacet\n";
+        stl_bin.extend_from_slice(&[0u8; 2]);
+    }
+    stl += "endsolid t\n";
+    put("mesh_stl", "tetra.stl", stl.as_bytes());
+    put("mesh_stl", "tetra-binary.stl", &stl_bin);
+
+    // An index of three synthetic shapes, one removed: its segment and manifest payloads.
+    let tmp = std::env::temp_dir().join(format!("keycomp-fuzz-seeds-{}", std::process::id()));
+    let _ = fs::remove_dir_all(&tmp);
+    {
+        let mut w = keycomp_index::IndexWriter::<D>::create_or_open(&tmp).expect("index");
+        w.ensure_profile("fuzz seeds").expect("profile");
+        let mut recs = keycomp_index::synthetic::records::<D>(3, 0..3);
+        for r in &mut recs {
+            r.components.truncate(2);
+            r.layout = vec![0.0, 0.5, 0.5, 0.0];
+        }
+        w.add_batch(recs).expect("add");
+        w.remove(&[keycomp_index::synthetic::record::<D>(3, 1).canonical_path])
+            .expect("remove");
+    }
+    let footer = keycomp_index::FOOTER_LEN;
+    for e in fs::read_dir(&tmp).expect("list the index") {
+        let p = e.expect("entry").path();
+        let name = p
+            .file_name()
+            .and_then(|n| n.to_str())
+            .unwrap_or_default()
+            .to_string();
+        let bytes = fs::read(&p).expect("read");
+        if bytes.len() < footer {
+            continue;
+        }
+        let payload = &bytes[..bytes.len() - footer];
+        if name == keycomp_index::MANIFEST_NAME {
+            let mut seed = vec![1u8]; // odd first byte: the current format version
+            seed.extend_from_slice(payload);
+            put("index_manifest", "manifest", &seed);
+        } else if name.ends_with(".kcs") {
+            put("index_segment", &name, payload);
+        }
+    }
+    let _ = fs::remove_dir_all(&tmp);
+    put(
+        "map_file",
+        "small.map",
+        b"# keycomp-map v1 transformed=4 null=3\n2\n-1\n0\n1\n",
+    );
+}
