@@ -86,6 +86,23 @@ end_header\n"
     }
     stl += "endsolid t\n";
     put("mesh_stl", "tetra.stl", stl.as_bytes());
+    let tetra = keycomp_mesh::Mesh {
+        positions: V
+            .iter()
+            .map(|v| keycomp_mesh::Point3::new(f64::from(v[0]), f64::from(v[1]), f64::from(v[2])))
+            .collect(),
+        faces: F.to_vec(),
+    };
+    let glb_path = std::env::temp_dir().join(format!("keycomp-seed-{}.glb", std::process::id()));
+    keycomp_mesh::write_glb(&tetra, &glb_path).expect("write a GLB");
+    put("mesh_gltf", "tetra.glb", &fs::read(&glb_path).expect("read the GLB"));
+    let _ = fs::remove_file(&glb_path);
+    // A glTF with its buffer (one triangle strip, not indexed) in a data URI, and two nodes.
+    put(
+        "mesh_gltf",
+        "strip.gltf",
+        br#"{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"children":[1],"translation":[1,0,0]},{"mesh":0,"scale":[-1,1,1]}],"meshes":[{"primitives":[{"attributes":{"POSITION":0},"mode":5}]}],"buffers":[{"byteLength":48,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAAAACAPwAAgD8AAAAA"}],"bufferViews":[{"buffer":0,"byteLength":48}],"accessors":[{"bufferView":0,"componentType":5126,"count":4,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}]}"#,
+    );
     put("mesh_stl", "tetra-binary.stl", &stl_bin);
 
     // An index of three synthetic shapes, one removed: its segment and manifest payloads.
