@@ -193,6 +193,25 @@ pub enum IndexCommand {
     Remove(RemoveArgs),
     /// Check every file of the index (checksums, versions, listed segments); changes nothing.
     Verify(DirArgs),
+    /// Merge indexes built apart (e.g. shards of one collection) into --index, in one commit.
+    #[command(
+        after_help = "Every source must have been made with the same parameters (profile) as the others and as\n\
+                      --index, unless --index is empty. A shape (canonical path) in several indexes with the same\n\
+                      content is stored once; with different contents the merge stops and names both indexes.\n\
+                      Nothing is written unless the whole merge succeeds.\n\n\
+                      Examples:\n  keycomp index merge shard-0 shard-1 shard-2 --index all"
+    )]
+    Merge(MergeArgs),
+}
+
+/// Arguments of `keycomp index merge`.
+#[derive(Debug, clap::Args)]
+pub struct MergeArgs {
+    /// Source index directories (read, never changed).
+    #[arg(required = true, value_name = "SRC")]
+    pub sources: Vec<PathBuf>,
+    #[command(flatten)]
+    pub dir: DirArgs,
 }
 
 /// The index directory option.
@@ -341,6 +360,7 @@ pub fn run(cmd: IndexCommand) -> Result<ExitCode> {
         IndexCommand::Stats(d) => stats(d),
         IndexCommand::Remove(r) => remove(r),
         IndexCommand::Verify(d) => verify(d),
+        IndexCommand::Merge(m) => merge(m),
     }
 }
 
@@ -539,6 +559,42 @@ fn remove(args: RemoveArgs) -> Result<ExitCode> {
     } else {
         ExitCode::SUCCESS
     })
+}
+
+fn merge(args: MergeArgs) -> Result<ExitCode> {
+    let dst = &args.dir.index;
+    let mut sources = Vec::with_capacity(args.sources.len());
+    for src in &args.sources {
+        if canonical_path(src) == canonical_path(dst) {
+            bail!("{}: an index cannot be merged into itself", src.display());
+        }
+        sources.push(Reader::open(src)?);
+    }
+    output::check_output_folder(dst)?;
+    let mut writer = Writer::create_or_open(dst)?;
+    let s = writer.merge(&sources)?;
+    if args.dir.json {
+        output::print_json(&serde_json::json!({
+            "index": dst.display().to_string(),
+            "sources": args.sources.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
+            "read": s.read,
+            "added": s.added,
+            "duplicates": s.duplicates,
+            "shapes": writer.len(),
+            "generation": s.generation,
+        }))?;
+    } else {
+        output::print_text(&format!(
+            "{}: merged {} indexes: {} shapes read, {} added, {} already there ({} shapes in the index)\n",
+            dst.display(),
+            sources.len(),
+            s.read,
+            s.added,
+            s.duplicates,
+            writer.len()
+        ))?;
+    }
+    Ok(ExitCode::SUCCESS)
 }
 
 fn verify(args: DirArgs) -> Result<ExitCode> {

@@ -222,6 +222,39 @@ pub enum IndexError {
         /// The caller's profile.
         requested: String,
     },
+    /// Two indexes being merged hold the same shape path with different contents.
+    #[error(
+        "{} is in {} and in {} with different contents (content hashes {first_hash} and {second_hash}); remove it from one of them, or re-index it, before merging",
+        path.display(),
+        first.display(),
+        second.display()
+    )]
+    MergeConflict {
+        /// The shape's canonical path.
+        path: PathBuf,
+        /// The index (destination or an earlier source) that holds it first.
+        first: PathBuf,
+        /// Its content hash there.
+        first_hash: String,
+        /// The source index that holds it with other contents.
+        second: PathBuf,
+        /// Its content hash there.
+        second_hash: String,
+    },
+    /// Indexes to merge were made with different profiles.
+    #[error(
+        "index {} was made another way than {} (profiles differ: {detail}); only indexes made with the same parameters can be merged",
+        source_dir.display(),
+        dest.display()
+    )]
+    MergeProfile {
+        /// The source index whose profile differs.
+        source_dir: PathBuf,
+        /// The index whose profile it was compared with (destination or first source).
+        dest: PathBuf,
+        /// The two profiles, or where they differ.
+        detail: String,
+    },
     /// A query vector cannot be searched for.
     #[error("invalid query: {reason}")]
     InvalidQuery {
@@ -260,6 +293,8 @@ impl IndexError {
             | IndexError::Locked { dir, .. }
             | IndexError::ProfileMismatch { dir, .. } => Some(dir),
             IndexError::MissingSegment { segment, .. } => Some(segment),
+            IndexError::MergeConflict { second, .. } => Some(second),
+            IndexError::MergeProfile { source_dir, .. } => Some(source_dir),
             IndexError::InvalidQuery { .. } => None,
         }
     }

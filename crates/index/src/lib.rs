@@ -51,7 +51,7 @@ pub use error::{CorruptKind, IndexError, Result};
 pub use reader::{ComponentMatch, IndexReader, IndexStats, IndexedShape, squared_distance};
 pub use record::{ComponentRecord, ContentHash, ShapeId, ShapeRecord, canonical_path};
 pub use verify::{VerifyReport, verify};
-pub use writer::{AddOutcome, AddSummary, IndexWriter};
+pub use writer::{AddOutcome, AddSummary, IndexWriter, MergeSummary};
 
 /// The on-disk format version this build writes. Bumped on any incompatible change; files of a
 /// version outside [`OLDEST_READABLE_VERSION`]`..=FORMAT_VERSION` are refused with

@@ -60,6 +60,20 @@ pub struct AddSummary {
     pub segment: Option<PathBuf>,
 }
 
+/// Result of [`IndexWriter::merge`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct MergeSummary {
+    /// Live shapes read from the sources.
+    pub read: usize,
+    /// Shapes stored in the destination.
+    pub added: usize,
+    /// Shapes already there (same canonical path and content hash in the destination or an
+    /// earlier source), stored once.
+    pub duplicates: usize,
+    /// Generation of the destination's manifest after the merge.
+    pub generation: u64,
+}
+
 #[derive(Debug, Clone, Copy)]
 struct Live {
     id: ShapeId,
@@ -246,6 +260,79 @@ impl<const D: usize> IndexWriter<D> {
             .to_str()
             .and_then(|k| self.live.get(k))
             .map(|l| (l.id, l.hash))
+    }
+
+    /// Merges the live shapes of `sources` (indexes built independently, e.g. shards of one
+    /// collection) into this index, in one commit: readers see all of them or none.
+    ///
+    /// Every source must have this index's profile (an empty destination takes the first
+    /// source's); otherwise [`IndexError::MergeProfile`] names the source. Shapes are
+    /// identified by canonical path: one already in the destination or in an earlier source
+    /// with the same content hash is stored once; with another hash, the merge stops with
+    /// [`IndexError::MergeConflict`] naming both indexes. On any error nothing is written.
+    /// Shapes get new ids here, in source order, then each source's id order.
+    pub fn merge(&mut self, sources: &[crate::IndexReader<D>]) -> Result<MergeSummary> {
+        let mut profile: Option<(String, PathBuf)> = if self.live.is_empty() {
+            None
+        } else {
+            Some((self.manifest.profile.clone(), self.dir.clone()))
+        };
+        for src in sources {
+            match &profile {
+                None => profile = Some((src.profile().to_string(), src.dir().to_path_buf())),
+                Some((p, dir)) if p != src.profile() => {
+                    return Err(IndexError::MergeProfile {
+                        source_dir: src.dir().to_path_buf(),
+                        dest: dir.clone(),
+                        detail: profile_difference(p, src.profile()),
+                    });
+                }
+                Some(_) => {}
+            }
+        }
+        // Where each canonical path was first seen: (content hash, index dir).
+        let mut seen: HashMap<&Path, (ContentHash, &Path)> = HashMap::new();
+        let mut batch = Vec::new();
+        let (mut read, mut duplicates) = (0, 0);
+        for src in sources {
+            for shape in src.shapes() {
+                read += 1;
+                let r = &shape.record;
+                let key = r.canonical_path.as_path();
+                let first = match self.lookup(key) {
+                    Some((_, hash)) => Some((hash, self.dir.as_path())),
+                    None => seen.get(key).copied(),
+                };
+                match first {
+                    Some((hash, _)) if hash == r.content_hash => duplicates += 1,
+                    Some((hash, dir)) => {
+                        return Err(IndexError::MergeConflict {
+                            path: key.to_path_buf(),
+                            first: dir.to_path_buf(),
+                            first_hash: hash.to_hex(),
+                            second: src.dir().to_path_buf(),
+                            second_hash: r.content_hash.to_hex(),
+                        });
+                    }
+                    None => {
+                        seen.insert(key, (r.content_hash, src.dir()));
+                        batch.push(r.clone());
+                    }
+                }
+            }
+        }
+        if let Some((p, _)) = profile
+            && !p.is_empty()
+        {
+            self.ensure_profile(&p)?;
+        }
+        let summary = self.add_batch(batch)?;
+        Ok(MergeSummary {
+            read,
+            added: summary.added,
+            duplicates,
+            generation: summary.generation,
+        })
     }
 
     /// Adds a batch of records as one new segment and commits it (one manifest update).
@@ -552,4 +639,54 @@ pub(crate) fn leftover_files(
     }
     out.sort();
     Ok(out)
+}
+
+/// Where two profiles differ: the JSON fields whose values differ (by dotted path, nested
+/// objects followed down) when both are JSON objects, else both texts.
+fn profile_difference(a: &str, b: &str) -> String {
+    use serde_json::Value;
+    fn walk(prefix: &str, x: &Value, y: &Value, out: &mut Vec<String>) {
+        match (x, y) {
+            (Value::Object(x), Value::Object(y)) => {
+                let mut keys: Vec<&String> = x.keys().chain(y.keys()).collect();
+                keys.sort();
+                keys.dedup();
+                for k in keys {
+                    let path = if prefix.is_empty() {
+                        k.clone()
+                    } else {
+                        format!("{prefix}.{k}")
+                    };
+                    match (x.get(k), y.get(k)) {
+                        (Some(u), Some(v)) => walk(&path, u, v, out),
+                        (u, v) => {
+                            let show =
+                                |w: Option<&Value>| w.map_or("absent".into(), Value::to_string);
+                            out.push(format!("{path}: {} vs {}", show(u), show(v)));
+                        }
+                    }
+                }
+            }
+            _ if x != y => out.push(format!("{prefix}: {x} vs {y}")),
+            _ => {}
+        }
+    }
+    if let (Ok(x @ Value::Object(_)), Ok(y @ Value::Object(_))) = (
+        serde_json::from_str::<Value>(a),
+        serde_json::from_str::<Value>(b),
+    ) {
+        let mut diff = Vec::new();
+        walk("", &x, &y, &mut diff);
+        if !diff.is_empty() {
+            return diff.join("; ");
+        }
+    }
+    let show = |p: &str| {
+        if p.is_empty() {
+            "none (format 1)".to_string()
+        } else {
+            format!("'{p}'")
+        }
+    };
+    format!("{} vs {}", show(a), show(b))
 }
