@@ -6,55 +6,20 @@ use std::process::ExitCode;
 
 use anyhow::{Context, Result, bail};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use keycomp_components::DetectParams;
 use keycomp_describe::{DIM, DescribeParams};
-use keycomp_index::{
-    ComponentRecord, ContentHash, IndexReader, IndexWriter, ShapeRecord, canonical_path,
-};
+use keycomp_index::{ContentHash, IndexReader, IndexWriter, ShapeRecord, canonical_path};
 use keycomp_mesh::read_mesh;
 use rayon::prelude::*;
 
+pub use keycomp::{Profile, record_of};
+
 use crate::detect::DetectArgs;
-use crate::match_cmd::analyse;
 use crate::output;
 
 /// The index as the CLI uses it: descriptors of the describe crate's length.
 pub type Writer = IndexWriter<DIM>;
 /// The index as the CLI uses it: descriptors of the describe crate's length.
 pub type Reader = IndexReader<DIM>;
-
-/// The profile recorded in an index (`keycomp_index::IndexWriter::ensure_profile`): what makes
-/// its descriptors comparable — descriptor version, description and detection parameters.
-#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct Profile {
-    /// [`keycomp_describe::DESCRIPTOR_VERSION`].
-    pub descriptor_version: u32,
-    /// Description parameters.
-    pub describe: DescribeParams,
-    /// Detection parameters.
-    pub detect: DetectParams,
-}
-
-impl Profile {
-    /// The profile of descriptors this keycomp makes with `params` and the default description.
-    pub fn current(params: &DetectParams) -> Profile {
-        Profile::with(params, DescribeParams::default())
-    }
-
-    /// The profile of descriptors this keycomp makes with `params` and `describe`.
-    pub fn with(params: &DetectParams, describe: DescribeParams) -> Profile {
-        Profile {
-            descriptor_version: keycomp_describe::DESCRIPTOR_VERSION,
-            describe,
-            detect: params.clone(),
-        }
-    }
-
-    /// As recorded in the index (compact JSON).
-    pub fn to_text(&self) -> Result<String> {
-        Ok(serde_json::to_string(self)?)
-    }
-}
 
 /// Opens (or creates) the index at `dir` for adding shapes analysed with `profile`: an empty
 /// index takes it, an index made another way is refused with a clear error.
@@ -288,31 +253,6 @@ fn collect(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
     Ok(out)
 }
 
-/// Reads, detects and describes one file, whose content hash is `hash`, into an index record.
-pub fn record_of(path: &Path, hash: ContentHash, profile: &Profile) -> Result<ShapeRecord<DIM>> {
-    let a = analyse(path, profile)?;
-    Ok(ShapeRecord {
-        path: path.to_path_buf(),
-        canonical_path: canonical_path(path),
-        content_hash: hash,
-        vertex_count: a.mesh.num_vertices() as u32,
-        face_count: a.mesh.num_faces() as u32,
-        surface_area: a.detection.area,
-        components: a
-            .description
-            .components
-            .iter()
-            .map(|c| ComponentRecord {
-                descriptor: c.descriptor,
-                centre_vertex: c.center,
-                area_fraction: c.area as f32,
-                keypoint_count: c.keypoints as u32,
-            })
-            .collect(),
-        layout: a.description.layout.clone(),
-    })
-}
-
 /// Records of `files` for `writer`'s index, in parallel, one per file: `None` for a file
 /// already indexed with the same content (each file is hashed once, and a known one is skipped
 /// before any other work), else the record or why it could not be made. Advances `bar` per file.
@@ -333,7 +273,7 @@ pub fn records_of_new(
             let r = match ContentHash::of_file(p) {
                 Err(e) => Some(Err(e.into())),
                 Ok(hash) if old == Some(hash) => None,
-                Ok(hash) => Some(record_of(p, hash, profile)),
+                Ok(hash) => Some(record_of(p, hash, profile).map_err(anyhow::Error::from)),
             };
             bar.inc(1);
             r

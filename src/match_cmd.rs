@@ -1,16 +1,17 @@
 //! `keycomp match A B`: part-to-part matching of two meshes by their key-components.
 
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 
-use anyhow::{Context, Result};
-use keycomp_components::{Detection, detect};
-use keycomp_describe::{ShapeDescription, describe_with};
+use anyhow::Result;
+use keycomp_components::Detection;
 use keycomp_mesh::{Mesh, read_mesh};
 use keycomp_retrieval::{MatchParams, ShapeView, match_shapes};
 use serde::Serialize;
+
+pub use keycomp::{Analysed, analyse};
 
 use crate::detect::DetectArgs;
 use crate::index_cmd::{Profile, UnitsArgs};
@@ -41,44 +42,6 @@ pub struct Args {
     /// Write B with each matched component in its pair's colour (PLY).
     #[arg(long, value_name = "OUT")]
     pub ply_b: Option<PathBuf>,
-}
-
-/// A mesh read, detected and described.
-pub struct Analysed {
-    pub mesh: Mesh,
-    pub detection: Detection,
-    pub description: ShapeDescription,
-    pub ms: f64,
-}
-
-/// Reads, detects and describes one mesh file.
-pub fn analyse(path: &Path, profile: &Profile) -> Result<Analysed> {
-    let t = Instant::now();
-    let mesh = read_mesh(path)?.mesh;
-    let detection = detect(&mesh, &profile.detect)
-        .with_context(|| format!("{}: key-component detection failed", path.display()))?;
-    let description = describe_with(&mesh, &detection, &profile.describe)
-        .with_context(|| format!("{}: describing its parts failed", path.display()))?;
-    Ok(Analysed {
-        mesh,
-        detection,
-        description,
-        ms: t.elapsed().as_secs_f64() * 1e3,
-    })
-}
-
-impl Analysed {
-    /// The matching view of this shape.
-    pub fn view(&self) -> (Vec<keycomp_describe::Descriptor>, &[f32]) {
-        (
-            self.description
-                .components
-                .iter()
-                .map(|c| c.descriptor)
-                .collect(),
-            &self.description.layout,
-        )
-    }
 }
 
 #[derive(Serialize)]

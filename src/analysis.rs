@@ -1,0 +1,222 @@
+//! Analysing a mesh for matching and retrieval: read it, detect its key-components, describe
+//! its parts, under a [`Profile`] (the parameters an index records so that its descriptors stay
+//! comparable).
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use keycomp_components::{DetectError, DetectParams, Detection, detect};
+use keycomp_describe::{DIM, DescribeError, DescribeParams, ShapeDescription, describe_with};
+use keycomp_index::{ComponentRecord, ContentHash, ShapeRecord, canonical_path};
+use keycomp_mesh::{Mesh, MeshError, read_mesh};
+
+/// What can go wrong while analysing a mesh. Every variant that concerns a file names it.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// The file could not be read, or is not a valid mesh.
+    #[error(transparent)]
+    Mesh(#[from] MeshError),
+    /// Key-component detection failed (invalid parameters, or the mesh has no usable area).
+    #[error("{}: key-component detection failed: {source}", show(path))]
+    Detection {
+        /// The mesh file, if the mesh came from one.
+        path: Option<PathBuf>,
+        /// Why.
+        source: DetectError,
+    },
+    /// Describing the parts failed.
+    #[error("{}: describing its parts failed: {source}", show(path))]
+    Description {
+        /// The mesh file, if the mesh came from one.
+        path: Option<PathBuf>,
+        /// Why.
+        source: DescribeError,
+    },
+    /// The profile could not be written as JSON.
+    #[error("cannot write the profile: {0}")]
+    Profile(#[from] serde_json::Error),
+}
+
+fn show(path: &Option<PathBuf>) -> String {
+    path.as_ref()
+        .map_or_else(|| "the mesh".to_string(), |p| p.display().to_string())
+}
+
+/// The profile recorded in an index (`keycomp_index::IndexWriter::ensure_profile`): what makes
+/// its descriptors comparable — descriptor version, description and detection parameters.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Profile {
+    /// [`keycomp_describe::DESCRIPTOR_VERSION`].
+    pub descriptor_version: u32,
+    /// Description parameters.
+    pub describe: DescribeParams,
+    /// Detection parameters.
+    pub detect: DetectParams,
+}
+
+impl Profile {
+    /// The profile of descriptors this keycomp makes with `params` and the default description.
+    pub fn current(params: &DetectParams) -> Profile {
+        Profile::with(params, DescribeParams::default())
+    }
+
+    /// The profile of descriptors this keycomp makes with `params` and `describe`.
+    pub fn with(params: &DetectParams, describe: DescribeParams) -> Profile {
+        Profile {
+            descriptor_version: keycomp_describe::DESCRIPTOR_VERSION,
+            describe,
+            detect: params.clone(),
+        }
+    }
+
+    /// As recorded in the index (compact JSON).
+    pub fn to_text(&self) -> Result<String, Error> {
+        Ok(serde_json::to_string(self)?)
+    }
+}
+
+/// A mesh read, detected and described.
+pub struct Analysed {
+    /// The mesh.
+    pub mesh: Mesh,
+    /// Its key-components (Sipiran & Bustos 2013).
+    pub detection: Detection,
+    /// Its parts at several scales, their descriptors and layout.
+    pub description: ShapeDescription,
+    /// Wall time of the analysis (reading included for a file), in milliseconds.
+    pub ms: f64,
+}
+
+/// Reads, detects and describes one mesh file under `profile`.
+pub fn analyse(path: &Path, profile: &Profile) -> Result<Analysed, Error> {
+    let t = Instant::now();
+    let mesh = read_mesh(path)?.mesh;
+    let mut a = analyse_in(mesh, profile, Some(path))?;
+    a.ms = t.elapsed().as_secs_f64() * 1e3;
+    Ok(a)
+}
+
+/// Detects and describes a mesh already in memory under `profile`.
+pub fn analyse_mesh(mesh: Mesh, profile: &Profile) -> Result<Analysed, Error> {
+    analyse_in(mesh, profile, None)
+}
+
+fn analyse_in(mesh: Mesh, profile: &Profile, path: Option<&Path>) -> Result<Analysed, Error> {
+    let t = Instant::now();
+    let detection = detect(&mesh, &profile.detect).map_err(|source| Error::Detection {
+        path: path.map(Path::to_path_buf),
+        source,
+    })?;
+    let description = describe_with(&mesh, &detection, &profile.describe).map_err(|source| {
+        Error::Description {
+            path: path.map(Path::to_path_buf),
+            source,
+        }
+    })?;
+    Ok(Analysed {
+        mesh,
+        detection,
+        description,
+        ms: t.elapsed().as_secs_f64() * 1e3,
+    })
+}
+
+impl Analysed {
+    /// The matching view of this shape: one descriptor per part, and the parts' layout.
+    pub fn view(&self) -> (Vec<keycomp_describe::Descriptor>, &[f32]) {
+        (
+            self.description
+                .components
+                .iter()
+                .map(|c| c.descriptor)
+                .collect(),
+            &self.description.layout,
+        )
+    }
+
+    /// The index record of this analysis, for a shape known by `path` (its identity in the
+    /// index is the path's canonical form) whose file has content hash `hash`.
+    pub fn record(&self, path: &Path, hash: ContentHash) -> ShapeRecord<DIM> {
+        ShapeRecord {
+            path: path.to_path_buf(),
+            canonical_path: canonical_path(path),
+            content_hash: hash,
+            vertex_count: self.mesh.num_vertices() as u32,
+            face_count: self.mesh.num_faces() as u32,
+            surface_area: self.detection.area,
+            components: self
+                .description
+                .components
+                .iter()
+                .map(|c| ComponentRecord {
+                    descriptor: c.descriptor,
+                    centre_vertex: c.center,
+                    area_fraction: c.area as f32,
+                    keypoint_count: c.keypoints as u32,
+                })
+                .collect(),
+            layout: self.description.layout.clone(),
+        }
+    }
+}
+
+/// Reads, detects and describes one file, whose content hash is `hash`, into an index record.
+pub fn record_of(
+    path: &Path,
+    hash: ContentHash,
+    profile: &Profile,
+) -> Result<ShapeRecord<DIM>, Error> {
+    Ok(analyse(path, profile)?.record(path, hash))
+}
+
+/// Detects and describes a mesh in memory into an index record under the name `path` (which
+/// need not exist as a file); its content hash is that of the mesh's positions and faces.
+pub fn record_of_mesh(
+    mesh: Mesh,
+    path: &Path,
+    profile: &Profile,
+) -> Result<ShapeRecord<DIM>, Error> {
+    let mut bytes = Vec::with_capacity(24 * mesh.positions.len() + 12 * mesh.faces.len());
+    for p in &mesh.positions {
+        for c in [p.x, p.y, p.z] {
+            bytes.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    for f in &mesh.faces {
+        for v in f {
+            bytes.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    let hash = ContentHash::of_bytes(&bytes);
+    Ok(analyse_mesh(mesh, profile)?.record(path, hash))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use keycomp_mesh::{synth, write_off};
+
+    /// A mesh analysed in memory gives the parts of the same mesh read from a file, and its
+    /// record names the given path with a hash of the geometry.
+    #[test]
+    fn in_memory_equals_from_file() {
+        let mesh = synth::textured_protrusion_sphere(4);
+        let dir = tempfile::tempdir().expect("tempdir");
+        let path = dir.path().join("shape.off");
+        write_off(&mesh, &path).expect("write");
+        let profile = Profile::current(&DetectParams::default());
+        let from_file = analyse(&path, &profile).expect("analyse");
+        let in_memory = analyse_mesh(mesh.clone(), &profile).expect("analyse_mesh");
+        assert_eq!(from_file.view().0, in_memory.view().0);
+        assert_eq!(from_file.view().1, in_memory.view().1);
+        let a = record_of_mesh(mesh.clone(), Path::new("named.off"), &profile).expect("record");
+        let b = record_of_mesh(mesh, Path::new("named.off"), &profile).expect("record");
+        assert_eq!(a, b);
+        assert_eq!(a.path, Path::new("named.off"));
+        assert_eq!(a.components.len(), from_file.description.components.len());
+        let e = analyse(&dir.path().join("missing.off"), &profile)
+            .map(|_| ())
+            .unwrap_err();
+        assert!(e.to_string().contains("missing.off"), "{e}");
+    }
+}
