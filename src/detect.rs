@@ -6,9 +6,10 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
+use keycomp::json::DetectionJson;
+use keycomp::options::DetectOptions;
 use keycomp_bench::experiment::Method;
-use keycomp_components::{DetectParams, Detection, GeodesicOptions, Preset, detect};
-use keycomp_harris::HarrisParams;
+use keycomp_components::{DetectParams, Detection, Preset, detect};
 use keycomp_mesh::{Mesh, read_mesh};
 use keycomp_mser::MserParams;
 use serde::Serialize;
@@ -90,11 +91,6 @@ fn parse_preset(s: &str) -> Result<Preset, String> {
         .map_err(|_| format!("unknown preset '{s}' (kc1, kc2 or kc3)"))
 }
 
-/// [`DetectArgs::n_reference`] of the retrieval commands (`index add`, `query`, `match`) when
-/// not given: KC-1 with N = 30 for shapes of at least 250 keypoints (25k vertices), scaled down
-/// below (see BENCHMARKS.md, *Small meshes*).
-pub const RETRIEVAL_N_REFERENCE: usize = 250;
-
 impl DetectArgs {
     /// Whether these options give the same retrieval parameters as giving none at all.
     pub fn is_default(&self) -> bool {
@@ -107,67 +103,35 @@ impl DetectArgs {
             .is_ok_and(|b| b.detect.retrieval_params() == self.retrieval_params())
     }
 
-    /// The parameters of the retrieval commands: [`DetectArgs::params`] with N scaled for small
-    /// shapes unless `--n-reference` says otherwise ([`RETRIEVAL_N_REFERENCE`]).
+    /// The options as the library takes them.
+    pub fn options(&self) -> DetectOptions {
+        DetectOptions {
+            preset: self.preset,
+            fraction: self.harris.fraction,
+            count: self.harris.count,
+            rings: self.harris.rings,
+            radius: self.harris.radius,
+            r: self.r,
+            t: self.t,
+            n: self.n,
+            n_reference: self.n_reference,
+            sigma: self.sigma,
+            seed: self.seed,
+            geodesic_vertices: self.geodesic_vertices,
+            split_angle: self.split_angle,
+        }
+    }
+
+    /// The parameters of the retrieval commands ([`DetectOptions::retrieval_params`]).
     pub fn retrieval_params(&self) -> DetectParams {
-        let mut p = self.params();
-        if self.n_reference.is_none() {
-            p.components.cluster.n_reference = Some(RETRIEVAL_N_REFERENCE);
-        }
-        p
+        self.options().retrieval_params()
     }
 
-    /// The parameters: the preset, then each explicit option on top.
+    /// The parameters: the preset, then each explicit option on top
+    /// ([`DetectOptions::params`]).
     pub fn params(&self) -> DetectParams {
-        let mut p = DetectParams {
-            harris: self.harris.params(HarrisParams::default()),
-            components: self.preset.component_params(),
-            geodesic: GeodesicOptions::default(),
-        };
-        if let Some(n) = self.geodesic_vertices {
-            p.geodesic.proxy_vertices = n;
-        }
-        if let Some(a) = self.split_angle {
-            p.geodesic.min_split_angle_degrees = a;
-        }
-        let c = &mut p.components;
-        if let Some(r) = self.r {
-            c.cluster.r = r;
-        }
-        if let Some(t) = self.t {
-            c.cluster.t = t;
-        }
-        if let Some(n) = self.n {
-            c.cluster.n_min = n;
-        }
-        if let Some(k) = self.n_reference {
-            c.cluster.n_reference = (k > 0).then_some(k);
-        }
-        if let Some(s) = self.sigma {
-            c.sigma = s;
-        }
-        if let Some(seed) = self.seed {
-            c.smacof.seed = seed;
-        }
-        p
+        self.options().params()
     }
-}
-
-#[derive(Serialize)]
-struct SphereJson {
-    center: [f64; 3],
-    radius: f64,
-}
-
-#[derive(Serialize)]
-struct ComponentJson<'a> {
-    id: usize,
-    center: u32,
-    sphere: SphereJson,
-    keypoints: &'a [u32],
-    vertices: &'a [u32],
-    faces: &'a [u32],
-    area: f64,
 }
 
 #[derive(Serialize)]
@@ -191,22 +155,6 @@ struct TimingsJson {
     cluster: f64,
     extract: f64,
     total: f64,
-}
-
-#[derive(Serialize)]
-struct Report<'a> {
-    mesh: String,
-    vertices: usize,
-    faces: usize,
-    area: f64,
-    preset: String,
-    method: &'static str,
-    params: &'a DetectParams,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    mser_params: Option<MserParams>,
-    keypoints: &'a [u32],
-    components: Vec<ComponentJson<'a>>,
-    timings_ms: TimingsJson,
 }
 
 /// Colours each key-component distinctly, grey elsewhere (later components paint over earlier
@@ -252,33 +200,9 @@ pub fn run(args: Args) -> Result<ExitCode> {
     }
     let t = det.timings;
     if args.json {
-        output::print_json(&Report {
-            mesh: args.mesh.display().to_string(),
-            vertices: mesh.num_vertices(),
-            faces: mesh.num_faces(),
-            area: det.area,
-            preset: args.detect.preset.to_string(),
-            method: args.method.name(),
-            params: &params,
+        output::print_json(&DetectionJson {
             mser_params,
-            keypoints: &det.keypoints,
-            components: det
-                .components
-                .iter()
-                .map(|c| ComponentJson {
-                    id: c.id,
-                    center: c.center,
-                    sphere: SphereJson {
-                        center: c.sphere_center,
-                        radius: c.sphere_radius,
-                    },
-                    keypoints: &c.keypoints,
-                    vertices: &c.vertices,
-                    faces: &c.faces,
-                    area: c.area,
-                })
-                .collect(),
-            timings_ms: TimingsJson {
+            timings_ms: Some(TimingsJson {
                 read: read_ms,
                 spectrum: mser_timings.map(|m| m.spectrum),
                 hks: mser_timings.map(|m| m.keypoints),
@@ -290,7 +214,15 @@ pub fn run(args: Args) -> Result<ExitCode> {
                 cluster: t.cluster,
                 extract: t.extract,
                 total: total_ms,
-            },
+            }),
+            ..DetectionJson::new(
+                &args.mesh.display().to_string(),
+                mesh,
+                &det,
+                &params,
+                args.detect.preset,
+                args.method.name(),
+            )
         })?;
     } else {
         let mut s = String::new();

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::{Context, Result};
-use keycomp_harris::{HarrisParams, Neighborhood, Selection};
+use keycomp_harris::HarrisParams;
 use keycomp_mesh::{Topology, read_mesh};
 use serde::Serialize;
 
@@ -51,20 +51,15 @@ pub struct HarrisArgs {
 
 impl HarrisArgs {
     /// The Harris parameters these options select, starting from `base`.
-    pub fn params(&self, mut base: HarrisParams) -> HarrisParams {
-        if let Some(f) = self.fraction {
-            base.selection = Selection::Fraction(f);
+    pub fn params(&self, base: HarrisParams) -> HarrisParams {
+        keycomp::options::DetectOptions {
+            fraction: self.fraction,
+            count: self.count,
+            rings: self.rings,
+            radius: self.radius,
+            ..Default::default()
         }
-        if let Some(n) = self.count {
-            base.selection = Selection::Count(n);
-        }
-        if let Some(k) = self.rings {
-            base.neighborhood = Neighborhood::Rings(k);
-        }
-        if let Some(d) = self.radius {
-            base.neighborhood = Neighborhood::Adaptive { radius_fraction: d };
-        }
-        base
+        .harris(base)
     }
 }
 

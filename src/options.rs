@@ -1,0 +1,106 @@
+//! Detection options as a user gives them (a preset, then single values on top), turned into
+//! [`DetectParams`]: the one place the command line and other front ends share.
+
+use keycomp_components::{DetectParams, GeodesicOptions, Preset};
+use keycomp_harris::{HarrisParams, Neighborhood, Selection};
+
+/// N of Algorithm 1 scaled for small shapes in the retrieval commands (`index add`, `query`,
+/// `match`) when not given: KC-1 with N = 30 for shapes of at least 250 keypoints (25k
+/// vertices), scaled down below (see BENCHMARKS.md, *Small meshes*).
+pub const RETRIEVAL_N_REFERENCE: usize = 250;
+
+/// Detection options: a preset of Section 4.3 of the paper, then each option given on top.
+/// `None` keeps the preset's (or the default) value.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct DetectOptions {
+    /// KC-1 (R 0.15, T 0.30, N 30), KC-2 (N 20) or KC-3 (R 0.10, T 0.20, N 30).
+    pub preset: Preset,
+    /// Keep this fraction of the vertices as keypoints (default 0.01).
+    pub fraction: Option<f64>,
+    /// Keep this many keypoints (instead of a fraction).
+    pub count: Option<usize>,
+    /// Harris neighbourhoods of this many rings (instead of the adaptive radius).
+    pub rings: Option<usize>,
+    /// Adaptive Harris neighbourhood radius, as a fraction of the reference length.
+    pub radius: Option<f64>,
+    /// Intra-cluster distance R.
+    pub r: Option<f64>,
+    /// Inter-cluster distance T.
+    pub t: Option<f64>,
+    /// Fewest keypoints in a cluster, N.
+    pub n: Option<usize>,
+    /// Scale N down below this many keypoints (0 = the paper's fixed N).
+    pub n_reference: Option<usize>,
+    /// Region-growing bound σ.
+    pub sigma: Option<f64>,
+    /// Seed of SMACOF's random starts.
+    pub seed: Option<u64>,
+    /// Fronts on a proxy of at most this many vertices (0 = the full mesh).
+    pub geodesic_vertices: Option<usize>,
+    /// Split obtuse corners of at least this angle, in degrees.
+    pub split_angle: Option<f64>,
+}
+
+impl DetectOptions {
+    /// The Harris parameters: `base` with the selection and neighbourhood options on top.
+    pub fn harris(&self, mut base: HarrisParams) -> HarrisParams {
+        if let Some(f) = self.fraction {
+            base.selection = Selection::Fraction(f);
+        }
+        if let Some(n) = self.count {
+            base.selection = Selection::Count(n);
+        }
+        if let Some(k) = self.rings {
+            base.neighborhood = Neighborhood::Rings(k);
+        }
+        if let Some(d) = self.radius {
+            base.neighborhood = Neighborhood::Adaptive { radius_fraction: d };
+        }
+        base
+    }
+
+    /// The detection parameters (what `keycomp detect` uses): the preset, then each option.
+    pub fn params(&self) -> DetectParams {
+        let mut p = DetectParams {
+            harris: self.harris(HarrisParams::default()),
+            components: self.preset.component_params(),
+            geodesic: GeodesicOptions::default(),
+        };
+        if let Some(n) = self.geodesic_vertices {
+            p.geodesic.proxy_vertices = n;
+        }
+        if let Some(a) = self.split_angle {
+            p.geodesic.min_split_angle_degrees = a;
+        }
+        let c = &mut p.components;
+        if let Some(r) = self.r {
+            c.cluster.r = r;
+        }
+        if let Some(t) = self.t {
+            c.cluster.t = t;
+        }
+        if let Some(n) = self.n {
+            c.cluster.n_min = n;
+        }
+        if let Some(k) = self.n_reference {
+            c.cluster.n_reference = (k > 0).then_some(k);
+        }
+        if let Some(s) = self.sigma {
+            c.sigma = s;
+        }
+        if let Some(seed) = self.seed {
+            c.smacof.seed = seed;
+        }
+        p
+    }
+
+    /// The parameters of the retrieval commands: [`DetectOptions::params`] with N scaled for
+    /// small shapes unless `n_reference` says otherwise ([`RETRIEVAL_N_REFERENCE`]).
+    pub fn retrieval_params(&self) -> DetectParams {
+        let mut p = self.params();
+        if self.n_reference.is_none() {
+            p.components.cluster.n_reference = Some(RETRIEVAL_N_REFERENCE);
+        }
+        p
+    }
+}
