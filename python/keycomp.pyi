@@ -1,0 +1,84 @@
+"""keycomp: key-components of 3D meshes (Sipiran & Bustos 2013) for matching and partial retrieval.
+
+Type stubs of the compiled module. Meshes are given as a path (str or os.PathLike), a
+(vertices, faces) pair of arrays, or an object with .vertices and .faces (a trimesh.Trimesh).
+Errors raise OSError (a file cannot be read or written) or ValueError (bad data or arguments),
+with keycomp's messages.
+"""
+
+import os
+from typing import Any, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+MeshLike = Union[str, os.PathLike, Tuple[npt.ArrayLike, npt.ArrayLike], Any]
+
+def read_mesh(path: Union[str, os.PathLike]) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]:
+    """(vertices (n, 3) float64, faces (m, 3) int64) of a mesh file, ids as `keycomp detect` uses."""
+
+class Component:
+    id: int
+    center: int
+    area: float
+    @property
+    def vertices(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def faces(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def keypoints(self) -> npt.NDArray[np.int64]: ...
+
+class DetectionResult:
+    @property
+    def keypoints(self) -> npt.NDArray[np.int64]:
+        """Keypoints (vertex ids), best first."""
+    @property
+    def components(self) -> list[Component]: ...
+    def to_dict(self) -> dict[str, Any]:
+        """`keycomp detect --json` without `timings_ms`."""
+
+def detect(
+    mesh: MeshLike,
+    faces: Optional[npt.ArrayLike] = None,
+    *,
+    preset: str = "kc1",
+    fraction: Optional[float] = None,
+    count: Optional[int] = None,
+    r: Optional[float] = None,
+    t: Optional[float] = None,
+    n: Optional[int] = None,
+    sigma: Optional[float] = None,
+    seed: Optional[int] = None,
+) -> DetectionResult:
+    """Key-components with the parameters of `keycomp detect` (a preset, then options on top)."""
+
+class Match:
+    query_component: int
+    target_component: int
+    distance: float
+
+class QueryResult:
+    path: str
+    score: float
+    matches: list[Match]
+
+class MatchResult:
+    score: float
+    matches: list[Match]
+    rejected: int
+    scale: Optional[float]
+
+def match(a: MeshLike, b: MeshLike) -> MatchResult:
+    """Part-to-part matching of two meshes, as `keycomp match A B`."""
+
+class Index:
+    def __init__(self, path: Union[str, os.PathLike]) -> None: ...
+    @property
+    def path(self) -> str: ...
+    def add(self, paths: Sequence[Union[str, os.PathLike]]) -> int:
+        """Adds mesh files (folders searched recursively); returns shapes added or replaced."""
+    def remove(self, paths: Sequence[Union[str, os.PathLike]]) -> int: ...
+    def query(self, mesh: MeshLike, k: int = 10) -> list[QueryResult]: ...
+    def __len__(self) -> int: ...

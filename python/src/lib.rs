@@ -1,0 +1,602 @@
+//! Python bindings of keycomp (PyO3): read meshes, detect key-components (Sipiran & Bustos
+//! 2013), build and query an index, match two meshes. The work runs with the GIL released;
+//! errors are Python exceptions carrying keycomp's messages (`OSError` when a file cannot be
+//! read or written, `ValueError` for bad data or arguments).
+
+use std::path::PathBuf;
+
+use keycomp_components::{Detection, Preset, detect as detect_components};
+use keycomp_core::options::DetectOptions;
+use keycomp_core::{Analysed, Profile, analyse, analyse_mesh};
+use keycomp_describe::DIM;
+use keycomp_index::{ContentHash, IndexReader, IndexWriter, canonical_path};
+use keycomp_mesh::{Mesh, MeshError, Point3, read_mesh as read_mesh_file};
+use keycomp_retrieval::{MatchParams, ShapeView, match_shapes, rank};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2};
+use pyo3::exceptions::{PyOSError, PyValueError};
+use pyo3::prelude::*;
+
+/// An error as a Python exception: `OSError` for the operating system's errors, `ValueError`
+/// otherwise; the message is keycomp's (it names the file).
+fn py_err(e: impl std::fmt::Display, io: bool) -> PyErr {
+    if io {
+        PyOSError::new_err(e.to_string())
+    } else {
+        PyValueError::new_err(e.to_string())
+    }
+}
+
+fn mesh_err(e: MeshError) -> PyErr {
+    let io = matches!(e.kind, keycomp_mesh::ErrorKind::Io(_));
+    py_err(e, io)
+}
+
+fn analysis_err(e: keycomp_core::Error) -> PyErr {
+    match e {
+        keycomp_core::Error::Mesh(m) => mesh_err(m),
+        other => py_err(other, false),
+    }
+}
+
+fn index_err(e: keycomp_index::IndexError) -> PyErr {
+    let io = matches!(e, keycomp_index::IndexError::Io { .. });
+    py_err(e, io)
+}
+
+/// Vertices (n, 3) and faces (m, 3) as numpy arrays.
+type MeshArrays<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<i64>>);
+
+/// Reads a mesh file (OFF, OBJ, PLY, STL, glTF/GLB) into `(vertices, faces)`: float64 (n, 3)
+/// and int64 (m, 3) arrays, vertex ids as `keycomp detect` numbers them.
+#[pyfunction]
+fn read_mesh<'py>(py: Python<'py>, path: PathBuf) -> PyResult<MeshArrays<'py>> {
+    let mesh = py.detach(|| read_mesh_file(&path)).map_err(mesh_err)?.mesh;
+    Ok(arrays(py, &mesh))
+}
+
+fn arrays<'py>(py: Python<'py>, mesh: &Mesh) -> MeshArrays<'py> {
+    let v: Vec<f64> = mesh
+        .positions
+        .iter()
+        .flat_map(|p| [p.x, p.y, p.z])
+        .collect();
+    let f: Vec<i64> = mesh.faces.iter().flat_map(|t| t.map(i64::from)).collect();
+    let v = v
+        .into_pyarray(py)
+        .reshape([mesh.positions.len(), 3])
+        .expect("n×3 values");
+    let f = f
+        .into_pyarray(py)
+        .reshape([mesh.faces.len(), 3])
+        .expect("m×3 values");
+    (v, f)
+}
+
+/// A mesh from Python: a path (str or os.PathLike), a `(vertices, faces)` pair of arrays, or
+/// an object with `.vertices` and `.faces` (a trimesh.Trimesh).
+enum MeshInput {
+    Path(PathBuf),
+    Mesh(Mesh),
+}
+
+fn mesh_from_arrays(vertices: &Bound<'_, PyAny>, faces: &Bound<'_, PyAny>) -> PyResult<Mesh> {
+    let np = vertices.py().import("numpy")?;
+    let v = np.call_method1("asarray", (vertices, "float64"))?;
+    let f = np.call_method1("asarray", (faces, "int64"))?;
+    let v: PyReadonlyArray2<f64> = v
+        .extract()
+        .map_err(|_| PyValueError::new_err("vertices must be an (n, 3) array of numbers"))?;
+    let f: PyReadonlyArray2<i64> = f
+        .extract()
+        .map_err(|_| PyValueError::new_err("faces must be an (m, 3) array of vertex ids"))?;
+    let (v, f) = (v.as_array(), f.as_array());
+    if v.ncols() != 3 || f.ncols() != 3 {
+        return Err(PyValueError::new_err(format!(
+            "vertices must be (n, 3) and faces (m, 3); got {:?} and {:?}",
+            v.shape(),
+            f.shape()
+        )));
+    }
+    let positions: Vec<Point3<f64>> = v
+        .rows()
+        .into_iter()
+        .map(|r| Point3::new(r[0], r[1], r[2]))
+        .collect();
+    let mut tris = Vec::with_capacity(f.nrows());
+    for (i, r) in f.rows().into_iter().enumerate() {
+        let mut t = [0u32; 3];
+        for k in 0..3 {
+            t[k] = u32::try_from(r[k])
+                .ok()
+                .filter(|&x| (x as usize) < positions.len())
+                .ok_or_else(|| {
+                    PyValueError::new_err(format!(
+                        "face {i} refers to vertex {}, there are {}",
+                        r[k],
+                        positions.len()
+                    ))
+                })?;
+        }
+        tris.push(t);
+    }
+    Ok(Mesh::from_raw(positions, tris).map_err(mesh_err)?.0)
+}
+
+fn mesh_input(obj: &Bound<'_, PyAny>, faces: Option<&Bound<'_, PyAny>>) -> PyResult<MeshInput> {
+    if let Some(f) = faces {
+        return Ok(MeshInput::Mesh(mesh_from_arrays(obj, f)?));
+    }
+    if let Ok(p) = obj.extract::<PathBuf>() {
+        return Ok(MeshInput::Path(p));
+    }
+    if obj.hasattr("vertices")? && obj.hasattr("faces")? {
+        return Ok(MeshInput::Mesh(mesh_from_arrays(
+            &obj.getattr("vertices")?,
+            &obj.getattr("faces")?,
+        )?));
+    }
+    if let Ok((v, f)) = obj.extract::<(Bound<'_, PyAny>, Bound<'_, PyAny>)>() {
+        return Ok(MeshInput::Mesh(mesh_from_arrays(&v, &f)?));
+    }
+    Err(PyValueError::new_err(
+        "expected a mesh: a path, (vertices, faces) arrays, or an object with .vertices and .faces",
+    ))
+}
+
+impl MeshInput {
+    fn load(self) -> PyResult<(Mesh, String)> {
+        match self {
+            MeshInput::Path(p) => Ok((
+                read_mesh_file(&p).map_err(mesh_err)?.mesh,
+                p.display().to_string(),
+            )),
+            MeshInput::Mesh(m) => Ok((m, "<array>".to_string())),
+        }
+    }
+}
+
+/// One key-component.
+#[pyclass(module = "keycomp", frozen)]
+struct Component {
+    #[pyo3(get)]
+    id: usize,
+    #[pyo3(get)]
+    center: u32,
+    #[pyo3(get)]
+    area: f64,
+    vertices: Vec<u32>,
+    faces: Vec<u32>,
+    keypoints: Vec<u32>,
+}
+
+#[pymethods]
+impl Component {
+    /// Vertex ids of the component.
+    #[getter]
+    fn vertices<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<i64>> {
+        ids(py, &self.vertices)
+    }
+    /// Face indices of the component.
+    #[getter]
+    fn faces<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<i64>> {
+        ids(py, &self.faces)
+    }
+    /// Keypoints (vertex ids) in the component.
+    #[getter]
+    fn keypoints<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<i64>> {
+        ids(py, &self.keypoints)
+    }
+    fn __repr__(&self) -> String {
+        format!(
+            "Component(id={}, center={}, {} vertices, area={})",
+            self.id,
+            self.center,
+            self.vertices.len(),
+            self.area
+        )
+    }
+}
+
+fn ids<'py>(py: Python<'py>, v: &[u32]) -> Bound<'py, PyArray1<i64>> {
+    v.iter()
+        .map(|&x| i64::from(x))
+        .collect::<Vec<_>>()
+        .into_pyarray(py)
+}
+
+/// The result of `detect`.
+#[pyclass(module = "keycomp", frozen)]
+struct DetectionResult {
+    json: String,
+    keypoints: Vec<u32>,
+    components: Vec<Py<Component>>,
+}
+
+#[pymethods]
+impl DetectionResult {
+    /// Keypoints (vertex ids), best first: the ids of `keycomp detect --json`.
+    #[getter]
+    fn keypoints<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<i64>> {
+        ids(py, &self.keypoints)
+    }
+    /// The key-components.
+    #[getter]
+    fn components(&self, py: Python<'_>) -> Vec<Py<Component>> {
+        self.components.iter().map(|c| c.clone_ref(py)).collect()
+    }
+    /// The detection as `keycomp detect --json` prints it, without `timings_ms`.
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        py.import("json")?.call_method1("loads", (&self.json,))
+    }
+    fn __repr__(&self) -> String {
+        format!(
+            "Detection({} keypoints, {} components)",
+            self.keypoints.len(),
+            self.components.len()
+        )
+    }
+}
+
+/// Detects key-components (Sipiran & Bustos 2013) with the parameters of `keycomp detect`:
+/// a preset ("kc1", "kc2", "kc3"), then the options given on top.
+#[pyfunction]
+#[pyo3(signature = (mesh, faces=None, *, preset="kc1", fraction=None, count=None, r=None, t=None, n=None, sigma=None, seed=None))]
+#[allow(clippy::too_many_arguments)]
+fn detect(
+    py: Python<'_>,
+    mesh: &Bound<'_, PyAny>,
+    faces: Option<&Bound<'_, PyAny>>,
+    preset: &str,
+    fraction: Option<f64>,
+    count: Option<usize>,
+    r: Option<f64>,
+    t: Option<f64>,
+    n: Option<usize>,
+    sigma: Option<f64>,
+    seed: Option<u64>,
+) -> PyResult<DetectionResult> {
+    let preset: Preset = preset.parse().map_err(|_| {
+        PyValueError::new_err(format!("unknown preset '{preset}' (kc1, kc2 or kc3)"))
+    })?;
+    let options = DetectOptions {
+        preset,
+        fraction,
+        count,
+        r,
+        t,
+        n,
+        sigma,
+        seed,
+        ..Default::default()
+    };
+    let input = mesh_input(mesh, faces)?;
+    let (json, det): (String, Detection) = py.detach(|| -> PyResult<_> {
+        let (mesh, name) = input.load()?;
+        let params = options.params();
+        let det = detect_components(&mesh, &params).map_err(|e| {
+            py_err(
+                format!("{name}: key-component detection failed: {e}"),
+                false,
+            )
+        })?;
+        let json =
+            keycomp_core::json::DetectionJson::<()>::new(&name, &mesh, &det, &params, preset, "kc");
+        let json = serde_json::to_string(&json).map_err(|e| py_err(e, false))?;
+        Ok((json, det))
+    })?;
+    let components = det
+        .components
+        .iter()
+        .map(|c| {
+            Py::new(
+                py,
+                Component {
+                    id: c.id,
+                    center: c.center,
+                    area: c.area,
+                    vertices: c.vertices.clone(),
+                    faces: c.faces.clone(),
+                    keypoints: c.keypoints.clone(),
+                },
+            )
+        })
+        .collect::<PyResult<_>>()?;
+    Ok(DetectionResult {
+        json,
+        keypoints: det.keypoints,
+        components,
+    })
+}
+
+/// One matched pair of parts.
+#[pyclass(module = "keycomp", frozen, get_all)]
+#[derive(Clone)]
+struct Match {
+    query_component: usize,
+    target_component: usize,
+    distance: f32,
+}
+
+#[pymethods]
+impl Match {
+    fn __repr__(&self) -> String {
+        format!(
+            "Match({} -> {}, distance={})",
+            self.query_component, self.target_component, self.distance
+        )
+    }
+}
+
+fn matches_of(m: &keycomp_retrieval::ShapeMatch) -> Vec<Match> {
+    m.matches
+        .iter()
+        .map(|c| Match {
+            query_component: c.query,
+            target_component: c.target,
+            distance: c.distance,
+        })
+        .collect()
+}
+
+/// One shape returned by `Index.query`.
+#[pyclass(module = "keycomp", frozen, get_all)]
+struct QueryResult {
+    path: String,
+    score: f64,
+    matches: Vec<Match>,
+}
+
+#[pymethods]
+impl QueryResult {
+    fn __repr__(&self) -> String {
+        format!(
+            "QueryResult({:?}, score={:.4}, {} matches)",
+            self.path,
+            self.score,
+            self.matches.len()
+        )
+    }
+}
+
+/// The result of `match(a, b)`: the score of A's parts matched in B, in [0, 1].
+#[pyclass(module = "keycomp", frozen, get_all)]
+struct MatchResult {
+    score: f64,
+    matches: Vec<Match>,
+    rejected: usize,
+    scale: Option<f64>,
+}
+
+#[pymethods]
+impl MatchResult {
+    fn __repr__(&self) -> String {
+        format!(
+            "MatchResult(score={:.4}, {} matches)",
+            self.score,
+            self.matches.len()
+        )
+    }
+}
+
+fn analyse_input(input: MeshInput, profile: &Profile) -> PyResult<Analysed> {
+    match input {
+        MeshInput::Path(p) => analyse(&p, profile).map_err(analysis_err),
+        MeshInput::Mesh(m) => analyse_mesh(m, profile).map_err(analysis_err),
+    }
+}
+
+/// Matches two meshes part to part, as `keycomp match A B`.
+#[pyfunction(name = "match")]
+fn match_meshes(
+    py: Python<'_>,
+    a: &Bound<'_, PyAny>,
+    b: &Bound<'_, PyAny>,
+) -> PyResult<MatchResult> {
+    let (a, b) = (mesh_input(a, None)?, mesh_input(b, None)?);
+    py.detach(|| {
+        let profile = Profile::current(&DetectOptions::default().retrieval_params());
+        let a = analyse_input(a, &profile)?;
+        let b = analyse_input(b, &profile)?;
+        let (da, la) = a.view();
+        let (db, lb) = b.view();
+        let m = match_shapes(
+            ShapeView {
+                descriptors: &da,
+                layout: la,
+            },
+            ShapeView {
+                descriptors: &db,
+                layout: lb,
+            },
+            &MatchParams::default(),
+        );
+        Ok(MatchResult {
+            score: m.score,
+            matches: matches_of(&m),
+            rejected: m.rejected,
+            scale: m.scale,
+        })
+    })
+}
+
+/// An on-disk keycomp index (the format of `keycomp index`). Opening creates nothing: the
+/// folder is made by the first `add`.
+#[pyclass(module = "keycomp")]
+struct Index {
+    path: PathBuf,
+}
+
+/// Mesh files among `paths`: files as given, folders searched recursively.
+fn collect(paths: &[PathBuf]) -> PyResult<Vec<PathBuf>> {
+    let mut out = Vec::new();
+    for p in paths {
+        if p.is_dir() {
+            let mut stack = vec![p.clone()];
+            while let Some(d) = stack.pop() {
+                let mut entries: Vec<PathBuf> = std::fs::read_dir(&d)
+                    .map_err(|e| {
+                        py_err(
+                            format!("{}: cannot read the folder: {e}", d.display()),
+                            true,
+                        )
+                    })?
+                    .filter_map(|e| e.ok().map(|e| e.path()))
+                    .collect();
+                entries.sort();
+                for e in entries.into_iter().rev() {
+                    if e.is_dir() {
+                        stack.push(e);
+                    } else if keycomp_mesh::Format::from_path(&e).is_ok() {
+                        out.push(e);
+                    }
+                }
+            }
+        } else if p.exists() {
+            out.push(p.clone());
+        } else {
+            return Err(py_err(
+                format!("{}: no such file or folder", p.display()),
+                true,
+            ));
+        }
+    }
+    Ok(out)
+}
+
+impl Index {
+    fn profile(&self, writer: &IndexWriter<DIM>) -> PyResult<Profile> {
+        match serde_json::from_str::<Profile>(writer.profile()) {
+            Ok(p) => Ok(p),
+            Err(_) if writer.is_empty() => Ok(Profile::current(
+                &DetectOptions::default().retrieval_params(),
+            )),
+            Err(_) => Err(py_err(
+                format!(
+                    "index {} has no readable profile; rebuild it with this keycomp",
+                    self.path.display()
+                ),
+                false,
+            )),
+        }
+    }
+}
+
+#[pymethods]
+impl Index {
+    #[new]
+    fn new(path: PathBuf) -> Self {
+        Index { path }
+    }
+
+    /// The index folder.
+    #[getter]
+    fn path(&self) -> String {
+        self.path.display().to_string()
+    }
+
+    /// Adds mesh files (folders are searched recursively), skipping files already indexed with
+    /// the same content; returns the number of shapes added or replaced. A file that cannot be
+    /// analysed raises, and nothing of the call is stored.
+    fn add(&self, py: Python<'_>, paths: Vec<PathBuf>) -> PyResult<usize> {
+        let files = collect(&paths)?;
+        py.detach(|| {
+            let mut w = IndexWriter::<DIM>::create_or_open(&self.path).map_err(index_err)?;
+            let profile = self.profile(&w)?;
+            w.ensure_profile(&profile.to_text().map_err(analysis_err)?)
+                .map_err(index_err)?;
+            let mut records = Vec::new();
+            for f in &files {
+                let hash = ContentHash::of_file(f).map_err(index_err)?;
+                if w.lookup(&canonical_path(f)).map(|(_, h)| h) == Some(hash) {
+                    continue;
+                }
+                records.push(keycomp_core::record_of(f, hash, &profile).map_err(analysis_err)?);
+            }
+            let s = w.add_batch(records).map_err(index_err)?;
+            Ok(s.added + s.replaced)
+        })
+    }
+
+    /// Removes shapes by path; returns how many were removed.
+    fn remove(&self, py: Python<'_>, paths: Vec<PathBuf>) -> PyResult<usize> {
+        py.detach(|| {
+            if !self.path.join(keycomp_index::MANIFEST_NAME).is_file() {
+                return Err(py_err(
+                    format!("{}: not a keycomp index", self.path.display()),
+                    false,
+                ));
+            }
+            let mut w = IndexWriter::<DIM>::create_or_open(&self.path).map_err(index_err)?;
+            w.remove(&paths).map_err(index_err)
+        })
+    }
+
+    /// The `k` best shapes for a mesh (a path, (vertices, faces), or a trimesh), best first.
+    #[pyo3(signature = (mesh, k=10))]
+    fn query(
+        &self,
+        py: Python<'_>,
+        mesh: &Bound<'_, PyAny>,
+        k: usize,
+    ) -> PyResult<Vec<QueryResult>> {
+        if k == 0 {
+            return Err(PyValueError::new_err("k must be at least 1"));
+        }
+        let input = mesh_input(mesh, None)?;
+        py.detach(|| {
+            let reader = IndexReader::<DIM>::open(&self.path).map_err(index_err)?;
+            let profile: Profile = serde_json::from_str(reader.profile()).map_err(|_| {
+                py_err(
+                    format!(
+                        "index {} has no readable profile; rebuild it with this keycomp",
+                        self.path.display()
+                    ),
+                    false,
+                )
+            })?;
+            let q = analyse_input(input, &profile)?;
+            let (d, l) = q.view();
+            let ranked = rank(&reader, &d, l, k, &MatchParams::default()).map_err(index_err)?;
+            Ok(ranked
+                .into_iter()
+                .map(|r| QueryResult {
+                    path: r.path.display().to_string(),
+                    score: r.result.score,
+                    matches: matches_of(&r.result),
+                })
+                .collect())
+        })
+    }
+
+    fn __len__(&self, py: Python<'_>) -> PyResult<usize> {
+        py.detach(|| {
+            if !self.path.join(keycomp_index::MANIFEST_NAME).is_file() {
+                return Ok(0);
+            }
+            Ok(IndexReader::<DIM>::open(&self.path)
+                .map_err(index_err)?
+                .shapes()
+                .len())
+        })
+    }
+
+    fn __repr__(&self) -> String {
+        format!("Index({:?})", self.path.display().to_string())
+    }
+}
+
+/// keycomp: key-components of 3D meshes for matching and partial retrieval.
+#[pymodule]
+fn keycomp(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(read_mesh, m)?)?;
+    m.add_function(wrap_pyfunction!(detect, m)?)?;
+    m.add_function(wrap_pyfunction!(match_meshes, m)?)?;
+    m.add_class::<Index>()?;
+    m.add_class::<DetectionResult>()?;
+    m.add_class::<Component>()?;
+    m.add_class::<QueryResult>()?;
+    m.add_class::<MatchResult>()?;
+    m.add_class::<Match>()?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}

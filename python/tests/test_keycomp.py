@@ -1,0 +1,138 @@
+"""Tests of the Python package against the keycomp binary on the same files."""
+
+import json
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import keycomp
+
+ROOT = Path(__file__).resolve().parents[2]
+DATA = ROOT.parent / "shared" / "data"
+
+
+def keycomp_binary():
+    exe = os.environ.get("KEYCOMP_BIN") or shutil.which("keycomp")
+    for candidate in [exe, ROOT / "target" / "release" / "keycomp", ROOT / "target" / "debug" / "keycomp"]:
+        if candidate and Path(candidate).is_file():
+            return str(candidate)
+    pytest.skip("no keycomp binary built (cargo build) to compare with")
+
+
+def write_off(path, vertices, faces):
+    with open(path, "w") as f:
+        f.write(f"OFF\n{len(vertices)} {len(faces)} 0\n")
+        for v in vertices:
+            f.write(" ".join(repr(float(x)) for x in v) + "\n")
+        for t in faces:
+            f.write("3 " + " ".join(str(int(i)) for i in t) + "\n")
+
+
+def sphere_with_bumps(n_theta=40, n_phi=80):
+    """A closed UV sphere with six bumps, made here (no data files)."""
+    verts = [(0.0, 0.0, 1.0)]
+    for i in range(1, n_theta):
+        th = np.pi * i / n_theta
+        for j in range(n_phi):
+            ph = 2 * np.pi * j / n_phi
+            d = np.array([np.sin(th) * np.cos(ph), np.sin(th) * np.sin(ph), np.cos(th)])
+            bump = 0.0
+            for c in np.eye(3).tolist() + (-np.eye(3)).tolist():
+                bump += 0.5 * np.exp(-np.sum((d - np.array(c)) ** 2) / 0.05)
+            verts.append(tuple((1 + bump) * d))
+    verts.append((0.0, 0.0, -1.0))
+    faces = []
+    ring = lambda i, j: 1 + (i - 1) * n_phi + (j % n_phi)
+    for j in range(n_phi):
+        faces.append((0, ring(1, j), ring(1, j + 1)))
+    for i in range(1, n_theta - 1):
+        for j in range(n_phi):
+            a, b, c, d = ring(i, j), ring(i, j + 1), ring(i + 1, j), ring(i + 1, j + 1)
+            faces += [(a, c, b), (b, c, d)]
+    last = len(verts) - 1
+    for j in range(n_phi):
+        faces.append((last, ring(n_theta - 1, j + 1), ring(n_theta - 1, j)))
+    return np.array(verts), np.array(faces)
+
+
+@pytest.fixture(scope="module")
+def shape(tmp_path_factory):
+    v, f = sphere_with_bumps()
+    path = tmp_path_factory.mktemp("shapes") / "bumps.off"
+    write_off(path, v, f)
+    return path, v, f
+
+
+def test_read_mesh_round_trip(shape):
+    path, v, f = shape
+    rv, rf = keycomp.read_mesh(path)
+    assert rv.shape == v.shape and rv.dtype == np.float64
+    assert rf.dtype == np.int64
+    np.testing.assert_array_equal(rf, f)
+    np.testing.assert_array_equal(rv, v)
+
+
+def test_detect_from_arrays_equals_the_cli(shape):
+    path, v, f = shape
+    cli = json.loads(subprocess.run([keycomp_binary(), "detect", str(path), "--json", "--seed", "3"],
+                                    check=True, capture_output=True).stdout)
+    det = keycomp.detect(v, f, seed=3)
+    ours = det.to_dict()
+    for d in (cli, ours):
+        d.pop("timings_ms", None)
+        d.pop("mesh")
+    assert ours == cli
+    assert det.keypoints.tolist() == cli["keypoints"]
+    assert len(det.components) == len(cli["components"])
+    for c, j in zip(det.components, cli["components"]):
+        assert c.vertices.tolist() == j["vertices"] and c.center == j["center"]
+    # the same through a trimesh-like object and through the path
+    class Like:
+        vertices, faces = v, f
+    assert keycomp.detect(Like(), seed=3).keypoints.tolist() == cli["keypoints"]
+    assert keycomp.detect(str(path), seed=3).keypoints.tolist() == cli["keypoints"]
+
+
+def test_errors_are_exceptions_with_keycomp_messages(tmp_path):
+    with pytest.raises(OSError, match="nosuch.off"):
+        keycomp.read_mesh(tmp_path / "nosuch.off")
+    bad = tmp_path / "bad.off"
+    bad.write_text("OFF\n3 1 0\n0 0 0\n1 0 0\n")
+    with pytest.raises(ValueError, match="bad.off"):
+        keycomp.read_mesh(bad)
+    with pytest.raises(ValueError, match="unknown preset"):
+        keycomp.detect(np.zeros((3, 3)), np.array([[0, 1, 2]]), preset="kc9")
+    with pytest.raises(ValueError, match="face 0 refers to vertex 7"):
+        keycomp.detect(np.zeros((3, 3)), np.array([[0, 1, 7]]))
+
+
+def test_index_add_query_remove(shape, tmp_path):
+    path, v, f = shape
+    other = tmp_path / "ball.off"
+    vb, fb = sphere_with_bumps(20, 40)
+    write_off(other, vb * np.array([1.0, 1.0, 0.6]), fb)
+    index = keycomp.Index(tmp_path / "index")
+    assert len(index) == 0
+    assert index.add([path, other]) == 2
+    assert index.add([path]) == 0, "an unchanged file is skipped"
+    assert len(index) == 2
+    results = index.query(path, k=5)
+    assert results[0].path == str(path) and results[0].score > 0
+    assert results[0].matches
+    # the CLI reads the index written from Python and ranks alike
+    cli = json.loads(subprocess.run([keycomp_binary(), "query", str(path), "--index", str(tmp_path / "index"),
+                                     "--json"], check=True, capture_output=True).stdout)
+    assert [r["path"] for r in cli["results"]] == [r.path for r in results]
+    assert index.query((v, f), k=1)[0].path == str(path)
+    assert index.remove([other]) == 1
+    assert len(index) == 1
+
+
+def test_match_is_high_for_a_shape_and_itself(shape):
+    path, v, f = shape
+    m = keycomp.match(path, (v, f))
+    assert m.score > 0.9 and m.matches
