@@ -134,6 +134,28 @@ impl Analysed {
         )
     }
 
+    /// Part-to-part matching of this shape (as the query) against `other` (Kuhn–Munkres on
+    /// descriptor distances, then the layout check; `keycomp_retrieval::match_shapes`).
+    pub fn match_with(
+        &self,
+        other: &Analysed,
+        params: &keycomp_retrieval::MatchParams,
+    ) -> keycomp_retrieval::ShapeMatch {
+        let (da, la) = self.view();
+        let (db, lb) = other.view();
+        keycomp_retrieval::match_shapes(
+            keycomp_retrieval::ShapeView {
+                descriptors: &da,
+                layout: la,
+            },
+            keycomp_retrieval::ShapeView {
+                descriptors: &db,
+                layout: lb,
+            },
+            params,
+        )
+    }
+
     /// The index record of this analysis, for a shape known by `path` (its identity in the
     /// index is the path's canonical form) whose file has content hash `hash`.
     pub fn record(&self, path: &Path, hash: ContentHash) -> ShapeRecord<DIM> {

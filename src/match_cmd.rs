@@ -8,7 +8,7 @@ use std::time::Instant;
 use anyhow::Result;
 use keycomp_components::Detection;
 use keycomp_mesh::{Mesh, read_mesh};
-use keycomp_retrieval::{MatchParams, ShapeView, match_shapes};
+use keycomp_retrieval::MatchParams;
 use serde::Serialize;
 
 pub use keycomp::{Analysed, analyse};
@@ -116,19 +116,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
     let (a, b) = rayon::join(|| analyse(&args.a, &params), || analyse(&args.b, &params));
     let (a, b) = (a?, b?);
     let t = Instant::now();
-    let (da, la) = a.view();
-    let (db, lb) = b.view();
-    let m = match_shapes(
-        ShapeView {
-            descriptors: &da,
-            layout: la,
-        },
-        ShapeView {
-            descriptors: &db,
-            layout: lb,
-        },
-        &MatchParams::default(),
-    );
+    let m = a.match_with(&b, &MatchParams::default());
     let match_ms = t.elapsed().as_secs_f64() * 1e3;
     if let Some(out) = &args.ply_a {
         let pairs: Vec<(usize, usize)> = m
@@ -160,8 +148,8 @@ pub fn run(args: Args) -> Result<ExitCode> {
         output::print_json(&Report {
             a: args.a.display().to_string(),
             b: args.b.display().to_string(),
-            components_a: da.len(),
-            components_b: db.len(),
+            components_a: a.description.components.len(),
+            components_b: b.description.components.len(),
             score: m.score,
             scale: m.scale,
             rejected: m.rejected,
@@ -186,9 +174,9 @@ pub fn run(args: Args) -> Result<ExitCode> {
             s,
             "{}: {} parts; {}: {} parts",
             args.a.display(),
-            da.len(),
+            a.description.components.len(),
             args.b.display(),
-            db.len()
+            b.description.components.len()
         )?;
         writeln!(
             s,
