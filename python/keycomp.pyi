@@ -77,8 +77,14 @@ class Index:
     def __init__(self, path: Union[str, os.PathLike]) -> None: ...
     @property
     def path(self) -> str: ...
-    def add(self, paths: Sequence[Union[str, os.PathLike]]) -> int:
-        """Adds mesh files (folders searched recursively); returns shapes added or replaced."""
+    def add(
+        self,
+        items: Sequence[Union[str, os.PathLike, Tuple[Union[str, os.PathLike], npt.ArrayLike, npt.ArrayLike]]],
+    ) -> int:
+        """Adds mesh files (folders searched recursively) or (name, vertices, faces) meshes;
+        returns shapes added or replaced."""
+    def merge(self, sources: Sequence[Union[str, os.PathLike]]) -> int:
+        """Merges indexes built apart into this one (one commit); returns shapes added."""
     def remove(self, paths: Sequence[Union[str, os.PathLike]]) -> int: ...
     def query(self, mesh: MeshLike, k: int = 10) -> list[QueryResult]: ...
     def __len__(self) -> int: ...

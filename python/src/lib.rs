@@ -11,7 +11,7 @@ use keycomp_core::{Analysed, Profile, analyse, analyse_mesh};
 use keycomp_describe::DIM;
 use keycomp_index::{ContentHash, IndexReader, IndexWriter, canonical_path};
 use keycomp_mesh::{Mesh, MeshError, Point3, read_mesh as read_mesh_file};
-use keycomp_retrieval::{MatchParams, ShapeView, match_shapes, rank};
+use keycomp_retrieval::{MatchParams, rank};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2};
 use pyo3::exceptions::{PyOSError, PyValueError};
 use pyo3::prelude::*;
@@ -397,19 +397,7 @@ fn match_meshes(
         let profile = Profile::current(&DetectOptions::default().retrieval_params());
         let a = analyse_input(a, &profile)?;
         let b = analyse_input(b, &profile)?;
-        let (da, la) = a.view();
-        let (db, lb) = b.view();
-        let m = match_shapes(
-            ShapeView {
-                descriptors: &da,
-                layout: la,
-            },
-            ShapeView {
-                descriptors: &db,
-                layout: lb,
-            },
-            &MatchParams::default(),
-        );
+        let m = a.match_with(&b, &MatchParams::default());
         Ok(MatchResult {
             score: m.score,
             matches: matches_of(&m),
@@ -494,10 +482,26 @@ impl Index {
         self.path.display().to_string()
     }
 
-    /// Adds mesh files (folders are searched recursively), skipping files already indexed with
-    /// the same content; returns the number of shapes added or replaced. A file that cannot be
-    /// analysed raises, and nothing of the call is stored.
-    fn add(&self, py: Python<'_>, paths: Vec<PathBuf>) -> PyResult<usize> {
+    /// Adds meshes: paths of files (folders are searched recursively) or `(name, vertices,
+    /// faces)` tuples of meshes in memory, stored under `name`. Files and meshes already
+    /// indexed with the same content are skipped. Returns the number of shapes added or
+    /// replaced. A mesh that cannot be analysed raises, and nothing of the call is stored.
+    fn add(&self, py: Python<'_>, items: Vec<Bound<'_, PyAny>>) -> PyResult<usize> {
+        let mut paths = Vec::new();
+        let mut meshes = Vec::new();
+        for item in &items {
+            if let Ok(p) = item.extract::<PathBuf>() {
+                paths.push(p);
+            } else if let Ok((name, v, f)) =
+                item.extract::<(PathBuf, Bound<'_, PyAny>, Bound<'_, PyAny>)>()
+            {
+                meshes.push((name, mesh_from_arrays(&v, &f)?));
+            } else {
+                return Err(PyValueError::new_err(
+                    "Index.add takes paths, or (name, vertices, faces) tuples",
+                ));
+            }
+        }
         let files = collect(&paths)?;
         py.detach(|| {
             let mut w = IndexWriter::<DIM>::create_or_open(&self.path).map_err(index_err)?;
@@ -512,8 +516,27 @@ impl Index {
                 }
                 records.push(keycomp_core::record_of(f, hash, &profile).map_err(analysis_err)?);
             }
+            for (name, mesh) in meshes {
+                records.push(
+                    keycomp_core::record_of_mesh(mesh, &name, &profile).map_err(analysis_err)?,
+                );
+            }
             let s = w.add_batch(records).map_err(index_err)?;
             Ok(s.added + s.replaced)
+        })
+    }
+
+    /// Merges other indexes (built apart, e.g. shards) into this one in one commit, as
+    /// `keycomp index merge`; returns the number of shapes added.
+    fn merge(&self, py: Python<'_>, sources: Vec<PathBuf>) -> PyResult<usize> {
+        py.detach(|| {
+            let readers = sources
+                .iter()
+                .map(IndexReader::<DIM>::open)
+                .collect::<Result<Vec<_>, _>>()
+                .map_err(index_err)?;
+            let mut w = IndexWriter::<DIM>::create_or_open(&self.path).map_err(index_err)?;
+            Ok(w.merge(&readers).map_err(index_err)?.added)
         })
     }
 

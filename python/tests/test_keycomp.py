@@ -136,3 +136,20 @@ def test_match_is_high_for_a_shape_and_itself(shape):
     path, v, f = shape
     m = keycomp.match(path, (v, f))
     assert m.score > 0.9 and m.matches
+
+
+def test_meshes_in_memory_and_merge(shape, tmp_path):
+    path, v, f = shape
+    a = keycomp.Index(tmp_path / "a")
+    assert a.add([("in-memory/bumps", v, f)]) == 1
+    assert a.add([("in-memory/bumps", v, f)]) == 0, "the same mesh again is skipped"
+    b = keycomp.Index(tmp_path / "b")
+    assert b.add([path]) == 1
+    merged = keycomp.Index(tmp_path / "merged")
+    assert merged.merge([tmp_path / "a", tmp_path / "b"]) == 2
+    assert len(merged) == 2
+    top = merged.query(path, k=2)
+    assert {r.path for r in top} == {"in-memory/bumps", str(path)}
+    assert top[0].score > 0.9 and top[1].score > 0.9
+    with pytest.raises(ValueError, match="takes paths"):
+        a.add([42])
