@@ -153,3 +153,20 @@ def test_meshes_in_memory_and_merge(shape, tmp_path):
     assert top[0].score > 0.9 and top[1].score > 0.9
     with pytest.raises(ValueError, match="takes paths"):
         a.add([42])
+
+
+def test_a_glb_written_by_trimesh_gives_the_keypoints_of_the_off(shape, tmp_path):
+    trimesh = pytest.importorskip("trimesh")
+    _, v, f = shape
+    v32 = v.astype(np.float32).astype(np.float64)  # GLB stores float32
+    off = tmp_path / "same.off"
+    write_off(off, v32, f)
+    glb = tmp_path / "same.glb"
+    trimesh.Trimesh(vertices=v, faces=f, process=False).export(glb)
+    gv, gf = keycomp.read_mesh(glb)
+    np.testing.assert_array_equal(gv, v32)
+    np.testing.assert_array_equal(gf, f)
+    assert keycomp.detect(glb).keypoints.tolist() == keycomp.detect(off).keypoints.tolist()
+    # the trimesh object itself, without a file
+    assert (keycomp.detect(trimesh.Trimesh(vertices=v32, faces=f, process=False)).keypoints.tolist()
+            == keycomp.detect(off).keypoints.tolist())
