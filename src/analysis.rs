@@ -8,7 +8,8 @@ use std::time::Instant;
 use keycomp_components::{DetectError, DetectParams, Detection, detect};
 use keycomp_describe::{DIM, DescribeError, DescribeParams, ShapeDescription, describe_with};
 use keycomp_index::{ComponentRecord, ContentHash, ShapeRecord, canonical_path};
-use keycomp_mesh::{Mesh, MeshError, read_mesh};
+use keycomp_mesh::{Format, Mesh, MeshError, read_mesh};
+use rayon::prelude::*;
 
 /// What can go wrong while analysing a mesh. Every variant that concerns a file names it.
 #[derive(Debug, thiserror::Error)]
@@ -35,6 +36,20 @@ pub enum Error {
     /// The profile could not be written as JSON.
     #[error("cannot write the profile: {0}")]
     Profile(#[from] serde_json::Error),
+    /// An index's descriptors cannot be compared with a query's (see [`query_profile`]).
+    #[error("{0}")]
+    Incomparable(String),
+    /// An index or file operation failed.
+    #[error(transparent)]
+    Index(#[from] keycomp_index::IndexError),
+    /// A path named is neither a file nor a folder, or a folder cannot be listed.
+    #[error("{}: {reason}", path.display())]
+    Path {
+        /// The path.
+        path: PathBuf,
+        /// What is wrong.
+        reason: String,
+    },
 }
 
 fn show(path: &Option<PathBuf>) -> String {
@@ -180,6 +195,122 @@ impl Analysed {
             layout: self.description.layout.clone(),
         }
     }
+}
+
+/// The profile under which a query is analysed for the index at `dir`, whose recorded profile
+/// is `recorded` (empty for an index written by an older keycomp) and which holds `shapes`
+/// shapes: always the index's description parameters (its length unit included), and its
+/// detection parameters unless the query asks for others (`mine`, from the query's options;
+/// `mine_is_default` when no option was given). Another descriptor version, other detection
+/// parameters asked for explicitly, or an index with shapes but no readable profile is an
+/// [`Error::Incomparable`] saying what to do: their descriptors would not be comparable.
+pub fn query_profile(
+    dir: &Path,
+    recorded: &str,
+    shapes: usize,
+    mine: &Profile,
+    mine_is_default: bool,
+) -> Result<Profile, Error> {
+    let rebuild =
+        "rebuild it (delete the directory and `keycomp index add` again) or use another --index";
+    if recorded.is_empty() {
+        if shapes == 0 {
+            return Ok(mine.clone());
+        }
+        return Err(Error::Incomparable(format!(
+            "index {} has no profile (written by an older keycomp): its descriptors may not be comparable with this keycomp's; {rebuild}",
+            dir.display()
+        )));
+    }
+    let theirs: Profile = serde_json::from_str(recorded).map_err(|_| {
+        Error::Incomparable(format!(
+            "index {}: unreadable profile {recorded:?}; {rebuild}",
+            dir.display()
+        ))
+    })?;
+    if theirs.descriptor_version != mine.descriptor_version {
+        return Err(Error::Incomparable(format!(
+            "index {} holds descriptors of version {} ({:?}), this keycomp makes version {} ({:?}); {rebuild}",
+            dir.display(),
+            theirs.descriptor_version,
+            theirs.describe,
+            mine.descriptor_version,
+            mine.describe
+        )));
+    }
+    if theirs.detect == mine.detect || mine_is_default {
+        return Ok(theirs);
+    }
+    Err(Error::Incomparable(format!(
+        "index {} was built with other detection parameters than the query's options give: index {}, query {}; drop the options to use the index's",
+        dir.display(),
+        serde_json::to_string(&theirs.detect)?,
+        serde_json::to_string(&mine.detect)?
+    )))
+}
+
+/// The files named, and the supported mesh files (by extension) below the folders named, each
+/// folder's sorted by path so the order is reproducible. A named file is kept whatever its
+/// extension (reading it then says what is wrong); a path that does not exist is an error,
+/// before anything else is done.
+pub fn mesh_files(paths: &[PathBuf]) -> Result<Vec<PathBuf>, Error> {
+    let mut out = Vec::new();
+    for p in paths {
+        if p.is_dir() {
+            let mut stack = vec![p.clone()];
+            while let Some(d) = stack.pop() {
+                let mut entries: Vec<PathBuf> = std::fs::read_dir(&d)
+                    .map_err(|e| Error::Path {
+                        path: d.clone(),
+                        reason: format!("cannot read the folder: {e}"),
+                    })?
+                    .filter_map(|e| e.ok().map(|e| e.path()))
+                    .collect();
+                entries.sort();
+                for e in entries.into_iter().rev() {
+                    if e.is_dir() {
+                        stack.push(e);
+                    } else if Format::from_path(&e).is_ok() {
+                        out.push(e);
+                    }
+                }
+            }
+        } else if p.exists() {
+            out.push(p.clone());
+        } else {
+            return Err(Error::Path {
+                path: p.clone(),
+                reason: "no such file or folder".into(),
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// Records of `files`, in parallel, one per file: `None` for a file whose content hash equals
+/// `known(its canonical path)` (an index already holding it: each file is hashed once, and a
+/// known one is skipped before any other work), else the record or why it could not be made.
+/// Calls `done` after each file (for progress).
+pub fn records_of_new(
+    files: &[PathBuf],
+    profile: &Profile,
+    known: impl Fn(&Path) -> Option<ContentHash>,
+    done: impl Fn() + Sync,
+) -> Vec<Option<Result<ShapeRecord<DIM>, Error>>> {
+    let known: Vec<Option<ContentHash>> = files.iter().map(|p| known(&canonical_path(p))).collect();
+    files
+        .par_iter()
+        .zip(known)
+        .map(|(p, old)| {
+            let r = match ContentHash::of_file(p) {
+                Err(e) => Some(Err(e.into())),
+                Ok(hash) if old == Some(hash) => None,
+                Ok(hash) => Some(record_of(p, hash, profile)),
+            };
+            done();
+            r
+        })
+        .collect()
 }
 
 /// Reads, detects and describes one file, whose content hash is `hash`, into an index record.

@@ -195,8 +195,6 @@ fn parse_range(s: &str) -> Result<(f64, f64), String> {
     }
 }
 
-const EXTENSIONS: [&str; 6] = ["off", "obj", "ply", "stl", "gltf", "glb"];
-
 /// Supported mesh files below `dir`, sorted by path.
 fn list_meshes(dir: &Path) -> Result<Vec<PathBuf>> {
     if !dir.is_dir() {
@@ -211,11 +209,7 @@ fn list_meshes(dir: &Path) -> Result<Vec<PathBuf>> {
                 .path();
             if p.is_dir() {
                 stack.push(p);
-            } else if p
-                .extension()
-                .and_then(|e| e.to_str())
-                .is_some_and(|e| EXTENSIONS.contains(&e.to_ascii_lowercase().as_str()))
-            {
+            } else if keycomp_mesh::Format::from_path(&p).is_ok() {
                 out.push(p);
             }
         }

@@ -4,10 +4,10 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use keycomp_describe::{DIM, DescribeParams};
-use keycomp_index::{ContentHash, IndexReader, IndexWriter, ShapeRecord, canonical_path};
+use keycomp_index::{IndexReader, IndexWriter, ShapeRecord, canonical_path};
 use keycomp_mesh::read_mesh;
 use rayon::prelude::*;
 
@@ -37,43 +37,14 @@ pub fn open_writer(dir: &Path, profile: &Profile) -> Result<Writer> {
 pub fn open_reader_for_query(dir: &Path, args: &DetectArgs) -> Result<(Reader, Profile)> {
     let reader = Reader::open(dir)?;
     let mine = Profile::current(&args.retrieval_params());
-    let text = reader.profile();
-    let rebuild =
-        "rebuild it (delete the directory and `keycomp index add` again) or use another --index";
-    if text.is_empty() {
-        if reader.shapes().is_empty() {
-            return Ok((reader, mine));
-        }
-        bail!(
-            "index {} has no profile (written by an older keycomp): its descriptors may not be comparable with this keycomp's; {rebuild}",
-            dir.display()
-        );
-    }
-    let theirs: Profile = serde_json::from_str(text).with_context(|| {
-        format!(
-            "index {}: unreadable profile {text:?}; {rebuild}",
-            dir.display()
-        )
-    })?;
-    if theirs.descriptor_version != mine.descriptor_version {
-        bail!(
-            "index {} holds descriptors of version {} ({:?}), this keycomp makes version {} ({:?}); {rebuild}",
-            dir.display(),
-            theirs.descriptor_version,
-            theirs.describe,
-            mine.descriptor_version,
-            mine.describe
-        );
-    }
-    if theirs.detect == mine.detect || args.is_default() {
-        return Ok((reader, theirs));
-    }
-    bail!(
-        "index {} was built with other detection parameters than the query's options give: index {}, query {}; drop the options to use the index's",
-        dir.display(),
-        serde_json::to_string(&theirs.detect)?,
-        serde_json::to_string(&mine.detect)?
-    )
+    let profile = keycomp::query_profile(
+        dir,
+        reader.profile(),
+        reader.shapes().len(),
+        &mine,
+        args.is_default(),
+    )?;
+    Ok((reader, profile))
 }
 
 /// The length unit options of the commands that describe shapes (`index add`, `match`).
@@ -214,71 +185,23 @@ pub struct RemoveArgs {
     pub dir: DirArgs,
 }
 
-const EXTENSIONS: [&str; 6] = ["off", "obj", "ply", "stl", "gltf", "glb"];
-
-fn is_mesh(p: &Path) -> bool {
-    p.extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| EXTENSIONS.contains(&e.to_ascii_lowercase().as_str()))
-}
-
-/// The files named, and the supported mesh files below the directories named, sorted per
-/// directory so the order is reproducible.
-fn collect(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
-    let mut out = Vec::new();
-    for p in paths {
-        if p.is_dir() {
-            let mut stack = vec![p.clone()];
-            while let Some(d) = stack.pop() {
-                let mut entries: Vec<PathBuf> = std::fs::read_dir(&d)
-                    .with_context(|| format!("{}: cannot read directory", d.display()))?
-                    .filter_map(|e| e.ok().map(|e| e.path()))
-                    .collect();
-                entries.sort();
-                for e in entries.into_iter().rev() {
-                    if e.is_dir() {
-                        stack.push(e);
-                    } else if is_mesh(&e) {
-                        out.push(e);
-                    }
-                }
-            }
-        } else if p.exists() {
-            out.push(p.clone()); // a named file is tried whatever its extension (clear error)
-        } else {
-            // Before the index is created or anything is analysed.
-            bail!("{}: no such file or folder", p.display());
-        }
-    }
-    Ok(out)
-}
-
-/// Records of `files` for `writer`'s index, in parallel, one per file: `None` for a file
-/// already indexed with the same content (each file is hashed once, and a known one is skipped
-/// before any other work), else the record or why it could not be made. Advances `bar` per file.
+/// Records of `files` for `writer`'s index ([`keycomp::records_of_new`]), advancing `bar` per
+/// file.
 pub fn records_of_new(
     writer: &Writer,
     files: &[PathBuf],
     profile: &Profile,
     bar: &ProgressBar,
 ) -> Vec<Option<Result<ShapeRecord<DIM>>>> {
-    let known: Vec<Option<ContentHash>> = files
-        .iter()
-        .map(|p| writer.lookup(&canonical_path(p)).map(|(_, h)| h))
-        .collect();
-    files
-        .par_iter()
-        .zip(known)
-        .map(|(p, old)| {
-            let r = match ContentHash::of_file(p) {
-                Err(e) => Some(Err(e.into())),
-                Ok(hash) if old == Some(hash) => None,
-                Ok(hash) => Some(record_of(p, hash, profile).map_err(anyhow::Error::from)),
-            };
-            bar.inc(1);
-            r
-        })
-        .collect()
+    keycomp::records_of_new(
+        files,
+        profile,
+        |c| writer.lookup(c).map(|(_, h)| h),
+        || bar.inc(1),
+    )
+    .into_iter()
+    .map(|r| r.map(|r| r.map_err(anyhow::Error::from)))
+    .collect()
 }
 
 /// A progress bar on stderr, hidden when stderr is not a terminal.
@@ -306,7 +229,7 @@ pub fn run(cmd: IndexCommand) -> Result<ExitCode> {
 
 fn add(args: AddArgs) -> Result<ExitCode> {
     let params = args.detect.retrieval_params();
-    let files = collect(&args.paths)?;
+    let files = keycomp::mesh_files(&args.paths)?;
     if files.is_empty() {
         bail!("no mesh files (.off, .obj, .ply, .stl, .gltf, .glb) found in the paths given");
     }

@@ -11,4 +11,7 @@ pub mod analysis;
 pub mod json;
 pub mod options;
 
-pub use analysis::{Analysed, Error, Profile, analyse, analyse_mesh, record_of, record_of_mesh};
+pub use analysis::{
+    Analysed, Error, Profile, analyse, analyse_mesh, mesh_files, query_profile, record_of,
+    record_of_mesh, records_of_new,
+};

@@ -9,7 +9,7 @@ use keycomp_components::{Detection, Preset, detect as detect_components};
 use keycomp_core::options::DetectOptions;
 use keycomp_core::{Analysed, Profile, analyse, analyse_mesh};
 use keycomp_describe::DIM;
-use keycomp_index::{ContentHash, IndexReader, IndexWriter, canonical_path};
+use keycomp_index::{IndexReader, IndexWriter};
 use keycomp_mesh::{Mesh, MeshError, Point3, read_mesh as read_mesh_file};
 use keycomp_retrieval::{MatchParams, rank};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2};
@@ -34,6 +34,8 @@ fn mesh_err(e: MeshError) -> PyErr {
 fn analysis_err(e: keycomp_core::Error) -> PyErr {
     match e {
         keycomp_core::Error::Mesh(m) => mesh_err(m),
+        keycomp_core::Error::Index(i) => index_err(i),
+        keycomp_core::Error::Path { .. } => py_err(e, true),
         other => py_err(other, false),
     }
 }
@@ -414,43 +416,6 @@ struct Index {
     path: PathBuf,
 }
 
-/// Mesh files among `paths`: files as given, folders searched recursively.
-fn collect(paths: &[PathBuf]) -> PyResult<Vec<PathBuf>> {
-    let mut out = Vec::new();
-    for p in paths {
-        if p.is_dir() {
-            let mut stack = vec![p.clone()];
-            while let Some(d) = stack.pop() {
-                let mut entries: Vec<PathBuf> = std::fs::read_dir(&d)
-                    .map_err(|e| {
-                        py_err(
-                            format!("{}: cannot read the folder: {e}", d.display()),
-                            true,
-                        )
-                    })?
-                    .filter_map(|e| e.ok().map(|e| e.path()))
-                    .collect();
-                entries.sort();
-                for e in entries.into_iter().rev() {
-                    if e.is_dir() {
-                        stack.push(e);
-                    } else if keycomp_mesh::Format::from_path(&e).is_ok() {
-                        out.push(e);
-                    }
-                }
-            }
-        } else if p.exists() {
-            out.push(p.clone());
-        } else {
-            return Err(py_err(
-                format!("{}: no such file or folder", p.display()),
-                true,
-            ));
-        }
-    }
-    Ok(out)
-}
-
 impl Index {
     fn profile(&self, writer: &IndexWriter<DIM>) -> PyResult<Profile> {
         match serde_json::from_str::<Profile>(writer.profile()) {
@@ -502,19 +467,21 @@ impl Index {
                 ));
             }
         }
-        let files = collect(&paths)?;
+        let files = keycomp_core::mesh_files(&paths).map_err(analysis_err)?;
         py.detach(|| {
             let mut w = IndexWriter::<DIM>::create_or_open(&self.path).map_err(index_err)?;
             let profile = self.profile(&w)?;
             w.ensure_profile(&profile.to_text().map_err(analysis_err)?)
                 .map_err(index_err)?;
             let mut records = Vec::new();
-            for f in &files {
-                let hash = ContentHash::of_file(f).map_err(index_err)?;
-                if w.lookup(&canonical_path(f)).map(|(_, h)| h) == Some(hash) {
-                    continue;
-                }
-                records.push(keycomp_core::record_of(f, hash, &profile).map_err(analysis_err)?);
+            let made = keycomp_core::records_of_new(
+                &files,
+                &profile,
+                |c| w.lookup(c).map(|(_, h)| h),
+                || {},
+            );
+            for r in made.into_iter().flatten() {
+                records.push(r.map_err(analysis_err)?);
             }
             for (name, mesh) in meshes {
                 records.push(
@@ -568,15 +535,14 @@ impl Index {
         let input = mesh_input(mesh, None)?;
         py.detach(|| {
             let reader = IndexReader::<DIM>::open(&self.path).map_err(index_err)?;
-            let profile: Profile = serde_json::from_str(reader.profile()).map_err(|_| {
-                py_err(
-                    format!(
-                        "index {} has no readable profile; rebuild it with this keycomp",
-                        self.path.display()
-                    ),
-                    false,
-                )
-            })?;
+            let profile = keycomp_core::query_profile(
+                &self.path,
+                reader.profile(),
+                reader.shapes().len(),
+                &Profile::current(&DetectOptions::default().retrieval_params()),
+                true,
+            )
+            .map_err(analysis_err)?;
             let q = analyse_input(input, &profile)?;
             let (d, l) = q.view();
             let ranked = rank(&reader, &d, l, k, &MatchParams::default()).map_err(index_err)?;
