@@ -51,15 +51,10 @@ pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<()> {
 /// if it does not exist. Its parent must exist: keycomp creates the folder it is given, never
 /// the folders above it, as it writes output files only into folders that exist.
 pub fn create_output_folder(dir: &Path) -> Result<()> {
-    match std::fs::metadata(dir) {
-        Ok(m) if m.is_dir() => return Ok(()),
-        Ok(_) => bail!("{}: exists and is not a folder", dir.display()),
-        Err(e) if e.kind() != io::ErrorKind::NotFound => {
-            return Err(e).with_context(|| format!("{}: cannot use as a folder", dir.display()));
-        }
-        Err(_) => {}
+    check_output_folder(dir)?;
+    if dir.is_dir() {
+        return Ok(());
     }
-    check_parent(dir)?;
     std::fs::create_dir(dir).with_context(|| format!("{}: cannot create the folder", dir.display()))
 }
 

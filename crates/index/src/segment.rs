@@ -195,17 +195,23 @@ pub fn read<const D: usize>(
         });
     }
     let (opened, head, used, path) = open_checked(dir, manifest, entry)?;
-    let records = decode_records::<D>(&path, &opened.payload()[used..], &head, entry)?;
+    let records = decode_records::<D>(
+        &path,
+        &opened.payload()[used..],
+        &head,
+        Some(entry.components),
+    )?;
     Ok(Segment { head, records })
 }
 
 /// Decodes the records that follow `head` in a segment payload (`rest`) and checks them
-/// against the head and the segment's entry.
+/// against the head and the component count `expected` (the segment's entry's; `None` when
+/// there is no entry to check against).
 fn decode_records<const D: usize>(
     path: &Path,
     rest: &[u8],
     head: &SegmentHead,
-    entry: &SegmentEntry,
+    expected: Option<u64>,
 ) -> Result<Vec<ShapeRecord<D>>> {
     let malformed = |msg: String| IndexError::corrupt(path, CorruptKind::Malformed(msg));
     let (records, used2): (Vec<ShapeRecord<D>>, usize) =
@@ -237,10 +243,11 @@ fn decode_records<const D: usize>(
             .map_err(|e| malformed(format!("shape {}: {e}", c.id)))?;
         components += r.components.len() as u64;
     }
-    if components != entry.components {
+    if let Some(listed) = expected
+        && components != listed
+    {
         return Err(malformed(format!(
-            "{components} components in the file, the manifest says {}",
-            entry.components
+            "{components} components in the file, the manifest says {listed}"
         )));
     }
     Ok(records)
@@ -253,26 +260,23 @@ fn decode_records<const D: usize>(
 pub fn decode_unsealed<const D: usize>(payload: &[u8]) -> Result<Segment<D>> {
     let path = Path::new("fuzzed-segment");
     let malformed = |msg: String| IndexError::corrupt(path, CorruptKind::Malformed(msg));
-    let (head, used): (SegmentHead, usize) =
+    let (head, _): (SegmentHead, usize) =
         decode_bounded(payload).map_err(|e| malformed(format!("segment head: {e}")))?;
     let mut manifest = Manifest::empty(dim_u32::<D>());
     manifest.next_shape_id = head
         .catalogue
         .last()
         .map_or(0, |c| c.id.0.saturating_add(1));
-    let rest = &payload[used..];
-    // The component count is the one thing the head does not tell: take the records' own.
-    let (records, _): (Vec<ShapeRecord<D>>, usize) =
-        decode_bounded(rest).map_err(|e| malformed(format!("records: {e}")))?;
     let entry = SegmentEntry {
         number: head.number,
         len: payload.len() as u64,
         checksum: 0,
         shapes: head.catalogue.len() as u64,
-        components: records.iter().map(|r| r.components.len() as u64).sum(),
+        components: 0,
     };
     let (head, used) = decode_head(path, payload, &manifest, &entry)?;
-    let records = decode_records::<D>(path, &payload[used..], &head, &entry)?;
+    // The component count is the one thing the head does not tell: not checked.
+    let records = decode_records::<D>(path, &payload[used..], &head, None)?;
     Ok(Segment { head, records })
 }
 

@@ -105,13 +105,10 @@ pub fn classes_from_csv(
     root: &Path,
     csv: &Path,
 ) -> Result<Vec<String>, LabelError> {
-    let io = |source| LabelError::Io {
+    let text = keycomp_mesh::io::output::read_input_text(csv).map_err(|source| LabelError::Io {
         path: csv.to_path_buf(),
         source,
-    };
-    let bytes = keycomp_mesh::io::output::read_input(csv).map_err(io)?;
-    let text = String::from_utf8(bytes)
-        .map_err(|e| io(std::io::Error::new(std::io::ErrorKind::InvalidData, e)))?;
+    })?;
     let mut map: HashMap<String, String> = HashMap::new();
     for (i, line) in text.lines().enumerate() {
         let t = line.trim();

@@ -90,13 +90,11 @@ pub fn format_map(map: &[Option<VertexId>], null_vertices: usize) -> Result<Stri
 /// header, an unsupported version, a token that is not an id or `-1`, an id not below `null=`,
 /// or an entry count different from `transformed=`.
 pub fn read_map(path: &Path) -> Result<MapFile, BenchError> {
-    let io = |source| BenchError::Io {
-        path: path.to_path_buf(),
-        source,
-    };
-    let bytes = keycomp_mesh::io::output::read_input(path).map_err(io)?;
-    let text = String::from_utf8(bytes)
-        .map_err(|e| io(std::io::Error::new(std::io::ErrorKind::InvalidData, e)))?;
+    let text =
+        keycomp_mesh::io::output::read_input_text(path).map_err(|source| BenchError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
     parse_map(&text, path)
 }
 

@@ -239,6 +239,11 @@ pub fn read_input(path: &Path) -> io::Result<Vec<u8>> {
     Ok(bytes)
 }
 
+/// Reads the whole of a regular file (see [`open_input`]) as UTF-8 text.
+pub fn read_input_text(path: &Path) -> io::Result<String> {
+    String::from_utf8(read_input(path)?).map_err(|e| io::Error::new(io::ErrorKind::InvalidData, e))
+}
+
 /// "a FIFO", "a device", … for messages.
 fn kind_name(kind: &fs::FileType) -> &'static str {
     #[cfg(unix)]
