@@ -50,7 +50,7 @@ use keycomp_bench::retrieval::fpfh::{
 };
 use keycomp_bench::retrieval::labels::{DEFAULT_CLASS_REGEX, classes_from_csv, classes_from_names};
 use keycomp_bench::retrieval::metrics::{QueryScores, Summary, score, summarize};
-use keycomp_bench::retrieval::partial::{PartialKind, cut_fragment};
+use keycomp_fragment::{PartialKind, cut_fragment};
 use keycomp_bench::retrieval::{complete_ranking, pr_svg, rank_by_distance};
 use keycomp_bench::svg::Curve;
 use keycomp_components::DetectParams;

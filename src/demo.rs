@@ -8,7 +8,7 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
-use keycomp_bench::retrieval::partial::{PartialKind, cut_fragment};
+use keycomp_fragment::{PartialKind, cut_fragment};
 use keycomp_mesh::geometry;
 use keycomp_retrieval::{MatchParams, Ranked, rank};
 use keycomp_shapes::{Class, GenerateParams, Shape};

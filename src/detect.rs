@@ -8,7 +8,7 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use keycomp::json::DetectionJson;
 use keycomp::options::DetectOptions;
-use keycomp_bench::experiment::Method;
+use keycomp_mser::Method;
 use keycomp_components::{DetectParams, Detection, Preset, detect};
 use keycomp_mesh::{Mesh, read_mesh};
 use keycomp_mser::MserParams;

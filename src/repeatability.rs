@@ -11,11 +11,12 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use keycomp_bench::Kind;
 use keycomp_bench::cache::EmbeddingCache;
 use keycomp_bench::experiment::{
-    Budget, Config, ISOMETRY, Method, PresetSpec, Progress, Report, RunStats, discover, run,
+    Budget, Config, ISOMETRY, PresetSpec, Progress, Report, RunStats, discover, run,
 };
 use keycomp_bench::svg::{Curve, repeatability_svg};
 use keycomp_components::{GeodesicOptions, Preset, SmacofParams};
 use keycomp_harris::HarrisParams;
+use keycomp_mser::Method;
 use keycomp_mser::MserParams;
 use serde::Serialize;
 

@@ -78,7 +78,7 @@ use crate::evaluate::{
 use crate::paper::{PaperTable, paper_table, row_label, row_order};
 use crate::staged::{Embedded, Extractor, embed};
 use crate::transform::{Kind, MAX_STRENGTH, transform};
-use keycomp_mser::{MserParams, covering_set, detect as detect_mser};
+use keycomp_mser::{Method, MserParams, covering_set, detect as detect_mser};
 
 /// Format tag of the JSON [`Report`].
 pub const REPORT_FORMAT: &str = "keycomp-repeatability v1";
@@ -346,56 +346,6 @@ pub struct PresetSpec {
     pub cluster: ClusterParams,
     /// Region-growing factor σ.
     pub sigma: f64,
-}
-
-/// The detection method evaluated by a preset (Sipiran & Bustos 2013, Sections 3 and 4.4).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Method {
-    /// Key-components (Harris 3D, geodesics, SMACOF, clustering, region growing).
-    Kc,
-    /// Every diffusion-geometric maximally stable component (the paper's Table 5).
-    Mser,
-    /// MSER key-components: the MSER components covering the HKS keypoints (Table 6).
-    MserKc,
-}
-
-impl Method {
-    /// `kc`, `mser` or `mser-kc`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Method::Kc => "kc",
-            Method::Mser => "mser",
-            Method::MserKc => "mser-kc",
-        }
-    }
-
-    /// The MSER output of an MSER method (`None` for key-components).
-    pub fn mser_output(self) -> Option<keycomp_mser::Output> {
-        match self {
-            Method::Kc => None,
-            Method::Mser => Some(keycomp_mser::Output::All),
-            Method::MserKc => Some(keycomp_mser::Output::KeyComponents),
-        }
-    }
-}
-
-impl std::fmt::Display for Method {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl std::str::FromStr for Method {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s.trim().to_ascii_lowercase().as_str() {
-            "kc" => Ok(Method::Kc),
-            "mser" => Ok(Method::Mser),
-            "mser-kc" | "mserkc" => Ok(Method::MserKc),
-            _ => Err(format!("unknown method '{s}' (kc, mser or mser-kc)")),
-        }
-    }
 }
 
 impl PresetSpec {

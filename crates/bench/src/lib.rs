@@ -13,8 +13,9 @@
 //! is split in a clustering-independent stage and a per-preset stage ([`staged`]) whose first
 //! half is cached on disk by content ([`cache`]).
 //!
-//! [`retrieval`] measures retrieval quality (Princeton Shape Benchmark measures, the D2
-//! baseline, partial queries cut from a collection) for `keycomp bench retrieval`.
+//! [`retrieval`] measures retrieval quality (Princeton Shape Benchmark measures, the D2 and
+//! FPFH baselines) for `keycomp bench retrieval`. The bench is a client of the product crates:
+//! it uses none of its code in the `keycomp` library or command line.
 
 pub mod cache;
 mod error;

@@ -27,6 +27,7 @@
 //! ```
 
 pub mod detect;
+mod method;
 mod error;
 pub mod stable;
 pub mod tree;
@@ -35,5 +36,6 @@ pub use detect::{
     MserDetection, MserParams, MserTimings, Output, Weighting, covering_set, detect, diffusion_tree,
 };
 pub use error::{MserError, Result};
+pub use method::Method;
 pub use stable::{StableComponent, StableParams, maximally_stable, variations};
 pub use tree::ComponentTree;

@@ -1,21 +1,20 @@
 //! Retrieval quality of a labelled collection (`keycomp bench retrieval`): whole-shape and
 //! partial queries, the Princeton Shape Benchmark measures ([`metrics`]), two baselines, the D2
 //! shape distribution ([`d2`]) and an FPFH bag of words ([`fpfh`]), both drawing their points
-//! with one area sampler ([`sample`]), partial queries cut from the collection ([`partial`])
-//! and class labels ([`labels`]).
+//! with one area sampler ([`sample`]), and class labels ([`labels`]); the partial queries are cut
+//! from the collection by `keycomp_fragment`.
 //!
 //! The command (in the `keycomp` binary) ranks the collection for every query by
 //! key-components through the on-disk index and `keycomp_retrieval::rank`, by D2 histogram
 //! distance and by the cosine distance of FPFH bags of words, and scores every ranking with
 //! the same measures. This module holds what does not depend on the product: the measures, the
-//! baselines, the fragments and [`complete_ranking`], which turns a partial result list into a
+//! baselines and [`complete_ranking`], which turns a partial result list into a
 //! ranking of the whole collection.
 
 pub mod d2;
 pub mod fpfh;
 pub mod labels;
 pub mod metrics;
-pub mod partial;
 pub mod sample;
 
 use rand::SeedableRng;

@@ -1,4 +1,4 @@
-//! Partial queries cut from a collection shape: a geodesic ball, a plane cut and a simulated
+//! Fragments for partial queries, cut from a shape: a geodesic ball, a plane cut and a simulated
 //! single-view range scan, each keeping a requested fraction of the surface area.
 //!
 //! Every generator orders the faces by a key and keeps the shortest prefix whose area reaches
