@@ -36,6 +36,10 @@ pub enum Error {
     /// The profile could not be written as JSON.
     #[error("cannot write the profile: {0}")]
     Profile(#[from] serde_json::Error),
+    /// An option or argument is invalid (a unit length that is not positive, no mesh file in
+    /// the paths given, …).
+    #[error("{0}")]
+    Invalid(String),
     /// An index's descriptors cannot be compared with a query's (see [`query_profile`]).
     #[error("{0}")]
     Incomparable(String),

@@ -3,7 +3,7 @@
 //! queries (issue 6).
 //!
 //! **Key-components** go through the product path: every collection file is analysed by
-//! [`crate::index_cmd::record_of`], the function `keycomp index add` uses, with the same
+//! [`keycomp::record_of`], the function `keycomp index add` uses, with the same
 //! detection options ([`DetectArgs::retrieval_params`], the same defaults, including the
 //! scaling of N for small meshes), the records are written to a fresh on-disk index in
 //! `OUT/index` (opened by [`crate::index_cmd::open_writer`], as `index add` does), and each query is ranked by `keycomp_retrieval::rank` over that
@@ -50,11 +50,11 @@ use keycomp_bench::retrieval::fpfh::{
 };
 use keycomp_bench::retrieval::labels::{DEFAULT_CLASS_REGEX, classes_from_csv, classes_from_names};
 use keycomp_bench::retrieval::metrics::{QueryScores, Summary, score, summarize};
-use keycomp_fragment::{PartialKind, cut_fragment};
 use keycomp_bench::retrieval::{complete_ranking, pr_svg, rank_by_distance};
 use keycomp_bench::svg::Curve;
 use keycomp_components::DetectParams;
 use keycomp_describe::{DIM, DescribeParams, Units};
+use keycomp_fragment::{PartialKind, cut_fragment};
 use keycomp_index::{ContentHash, ShapeRecord};
 use keycomp_mesh::{Mesh, read_mesh};
 use keycomp_retrieval::{MatchParams, rank};
@@ -65,11 +65,11 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::detect::DetectArgs;
-use crate::index_cmd::{
-    Profile, Reader, areas_of, open_writer, progress, record_of, unit_from_areas,
-};
+use crate::index_cmd::{Profile, Reader, open_writer, progress};
 use crate::match_cmd::analyse;
 use crate::output;
+use keycomp::collection::{areas_of, unit_from_areas};
+use keycomp::record_of;
 
 pub const EXAMPLES: &str = "Examples:
   keycomp bench retrieval --collection ../shared/data/tosca

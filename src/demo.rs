@@ -10,15 +10,17 @@ use std::time::Instant;
 use anyhow::{Context, Result, bail};
 use keycomp_fragment::{PartialKind, cut_fragment};
 use keycomp_mesh::geometry;
-use keycomp_retrieval::{MatchParams, Ranked, rank};
+use keycomp_retrieval::Ranked;
 use keycomp_shapes::{Class, GenerateParams, Shape};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use crate::detect::DetectArgs;
-use crate::index_cmd::{Profile, open_reader_for_query, open_writer, progress, records_of_new};
-use crate::match_cmd::{Analysed, analyse};
+use crate::index_cmd::{Profile, progress};
+use crate::match_cmd::Analysed;
 use crate::{output, report};
+use keycomp::collection::{self, AddOptions, Units};
+use keycomp::search::Searcher;
 
 pub const EXAMPLES: &str = "Examples:
   keycomp demo                         # ./demo-out (meshes, queries, report) and ./index
@@ -81,34 +83,27 @@ fn class_of(path: &Path) -> Option<Class> {
     Class::from_name(stem.rsplit_once('-')?.0)
 }
 
-/// Indexes `files` into `index` exactly as `keycomp index add` does ([`open_writer`], which
-/// refuses an index made with other parameters, [`record_of`], skipping files already indexed
-/// with the same content). Returns (added or replaced, unchanged).
+/// Indexes `files` into `index` as `keycomp index add` does ([`collection::add`], which
+/// refuses an index made with other parameters and skips files already indexed with the same
+/// content), but stops at the first file that cannot be analysed. Returns (added or replaced,
+/// unchanged).
 fn index_files(index: &Path, files: &[PathBuf], params: &Profile) -> Result<(usize, usize)> {
-    let mut writer = open_writer(index, params)?;
-    let bar = progress(files.len() as u64, "indexing");
-    let results = records_of_new(&writer, files, params, &bar);
-    bar.finish_and_clear();
-    let mut records = Vec::new();
-    let mut unchanged = 0;
-    for (p, r) in files.iter().zip(results) {
-        match r {
-            None => unchanged += 1,
-            Some(Ok(rec)) => records.push(rec),
-            Some(Err(e)) => bail!(
-                "{}: indexing failed: {}",
-                p.display(),
-                crate::output::error_chain(&e)
-            ),
+    struct Bar(indicatif::ProgressBar);
+    impl collection::Progress for Bar {
+        fn file_done(&self) {
+            self.0.inc(1);
         }
     }
-    let mut changed = 0;
-    if !records.is_empty() {
-        let s = writer.add_batch(records)?;
-        changed = s.added + s.replaced;
-        unchanged += s.skipped;
-    }
-    Ok((changed, unchanged))
+    let bar = Bar(progress(files.len() as u64, "indexing"));
+    let options = AddOptions {
+        detect: Some(params.detect.clone()),
+        units: Some(Units::ScaleFree),
+        keep_going: false,
+    };
+    let s = collection::add(index, files, &options, &bar);
+    bar.0.finish_and_clear();
+    let s = s?;
+    Ok((s.added + s.replaced, s.unchanged))
 }
 
 pub fn run(args: Args) -> Result<ExitCode> {
@@ -232,14 +227,13 @@ pub fn run(args: Args) -> Result<ExitCode> {
     }
 
     // 4. Run them as `keycomp query` does (with the index's detection parameters).
-    let (reader, params) = open_reader_for_query(&args.index, &args.detect)?;
+    let searcher = Searcher::open(&args.index, args.detect.explicit().as_ref())?;
     let bar = progress(queries.len() as u64, "querying");
     let mut runs: Vec<(Analysed, Vec<Ranked>, f64)> = Vec::new();
     for q in &queries {
         let t = Instant::now();
-        let a = analyse(&q.path, &params)?;
-        let (descs, layout) = a.view();
-        let ranked = rank(&reader, &descs, layout, args.k, &MatchParams::default())?;
+        let a = searcher.analyse(&q.path)?;
+        let ranked = searcher.rank(&a, args.k)?;
         runs.push((a, ranked, t.elapsed().as_secs_f64()));
         bar.inc(1);
     }
@@ -345,7 +339,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
         .collect();
     let page = report::write_report(
         &args.out.join("report"),
-        &reader,
+        searcher.reader(),
         &entries,
         &report::ReportParams::default(),
     )?;

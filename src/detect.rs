@@ -8,9 +8,9 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use keycomp::json::DetectionJson;
 use keycomp::options::DetectOptions;
-use keycomp_mser::Method;
 use keycomp_components::{DetectParams, Detection, Preset, detect};
 use keycomp_mesh::{Mesh, read_mesh};
+use keycomp_mser::Method;
 use keycomp_mser::MserParams;
 use serde::Serialize;
 
@@ -125,6 +125,12 @@ impl DetectArgs {
     /// The parameters of the retrieval commands ([`DetectOptions::retrieval_params`]).
     pub fn retrieval_params(&self) -> DetectParams {
         self.options().retrieval_params()
+    }
+
+    /// The retrieval parameters when the options ask for other than the default ones, else
+    /// `None` (an index's own parameters then apply).
+    pub fn explicit(&self) -> Option<DetectParams> {
+        (!self.is_default()).then(|| self.retrieval_params())
     }
 
     /// The parameters: the preset, then each explicit option on top

@@ -6,20 +6,14 @@ use std::process::ExitCode;
 
 use anyhow::{Result, bail};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use keycomp_describe::{DIM, DescribeParams};
-use keycomp_index::{IndexReader, IndexWriter, ShapeRecord, canonical_path};
-use keycomp_mesh::read_mesh;
-use rayon::prelude::*;
+use keycomp::collection::{self, AddOptions, Failure, Units};
+use keycomp_describe::DIM;
 
-pub use keycomp::{Profile, record_of};
+pub use keycomp::Profile;
+pub use keycomp::collection::{Reader, Writer};
 
 use crate::detect::DetectArgs;
 use crate::output;
-
-/// The index as the CLI uses it: descriptors of the describe crate's length.
-pub type Writer = IndexWriter<DIM>;
-/// The index as the CLI uses it: descriptors of the describe crate's length.
-pub type Reader = IndexReader<DIM>;
 
 /// Opens (or creates) the index at `dir` for adding shapes analysed with `profile`: an empty
 /// index takes it, an index made another way is refused with a clear error.
@@ -27,24 +21,6 @@ pub fn open_writer(dir: &Path, profile: &Profile) -> Result<Writer> {
     let mut w = Writer::create_or_open(dir)?;
     w.ensure_profile(&profile.to_text()?)?;
     Ok(w)
-}
-
-/// Opens the index at `dir` for querying and chooses the profile of the query: the index's
-/// description parameters (its length unit included) always, and its detection parameters when
-/// the command line gives no detection option or agrees with them; anything else (another
-/// descriptor version, other detection parameters, an index without a profile) is a clear
-/// error, since its descriptors would not be comparable.
-pub fn open_reader_for_query(dir: &Path, args: &DetectArgs) -> Result<(Reader, Profile)> {
-    let reader = Reader::open(dir)?;
-    let mine = Profile::current(&args.retrieval_params());
-    let profile = keycomp::query_profile(
-        dir,
-        reader.profile(),
-        reader.shapes().len(),
-        &mine,
-        args.is_default(),
-    )?;
-    Ok((reader, profile))
 }
 
 /// The length unit options of the commands that describe shapes (`index add`, `match`).
@@ -64,54 +40,16 @@ pub struct UnitsArgs {
 }
 
 impl UnitsArgs {
-    /// Whether file units were asked for.
-    pub fn file(&self) -> bool {
-        self.units.as_deref() == Some("file")
-    }
-
-    /// The description parameters these options give, `sizes` standing for the shapes whose
-    /// median area sets the default unit (called only with --units file and no --unit-length).
-    pub fn describe_params(&self, sizes: impl FnOnce() -> Vec<f64>) -> Result<DescribeParams> {
-        if !self.file() {
-            if self.unit_length.is_some() {
-                bail!("--unit-length needs --units file");
-            }
-            return Ok(DescribeParams::default());
-        }
-        let length = match self.unit_length {
-            Some(l) if l.is_finite() && l > 0.0 => l,
-            Some(l) => bail!("--unit-length must be a positive number of file units, got {l}"),
-            None => unit_from_areas(sizes())?,
-        };
-        Ok(DescribeParams {
-            units: keycomp_describe::Units::File { length },
-            ..DescribeParams::default()
+    /// The units asked for (`None`: none given).
+    pub fn units(&self) -> Result<Option<Units>> {
+        Ok(match (self.units.as_deref(), self.unit_length) {
+            (None, None) => None,
+            (Some("file"), length) => Some(Units::File { length }),
+            (_, Some(_)) => bail!("--unit-length needs --units file"),
+            (_, None) => Some(Units::ScaleFree),
         })
     }
 }
-
-/// The length unit of a collection in file units: the square root of its median surface area.
-pub fn unit_from_areas(mut areas: Vec<f64>) -> Result<f64> {
-    areas.retain(|a| a.is_finite() && *a > 0.0);
-    if areas.is_empty() {
-        bail!("--units file: no shape with a positive surface area to choose the length unit from");
-    }
-    areas.sort_by(f64::total_cmp);
-    Ok(areas[areas.len() / 2].sqrt())
-}
-
-/// Surface areas of the readable meshes among `files` (unreadable ones are left out; they fail
-/// with a clear message when analysed).
-pub fn areas_of(files: &[PathBuf]) -> Vec<f64> {
-    files
-        .par_iter()
-        .filter_map(|p| read_mesh(p).ok())
-        .map(|m| keycomp_mesh::geometry::total_area(&m.mesh))
-        .collect()
-}
-
-/// Shapes described before each commit to disk.
-const BATCH: usize = 32;
 
 /// Index subcommands.
 #[derive(Debug, clap::Subcommand)]
@@ -185,25 +123,6 @@ pub struct RemoveArgs {
     pub dir: DirArgs,
 }
 
-/// Records of `files` for `writer`'s index ([`keycomp::records_of_new`]), advancing `bar` per
-/// file.
-pub fn records_of_new(
-    writer: &Writer,
-    files: &[PathBuf],
-    profile: &Profile,
-    bar: &ProgressBar,
-) -> Vec<Option<Result<ShapeRecord<DIM>>>> {
-    keycomp::records_of_new(
-        files,
-        profile,
-        |c| writer.lookup(c).map(|(_, h)| h),
-        || bar.inc(1),
-    )
-    .into_iter()
-    .map(|r| r.map(|r| r.map_err(anyhow::Error::from)))
-    .collect()
-}
-
 /// A progress bar on stderr, hidden when stderr is not a terminal.
 pub fn progress(len: u64, what: &str) -> ProgressBar {
     let bar = ProgressBar::with_draw_target(Some(len), ProgressDrawTarget::stderr());
@@ -227,70 +146,49 @@ pub fn run(cmd: IndexCommand) -> Result<ExitCode> {
     }
 }
 
+/// Progress of an add on a bar, failures printed above it.
+struct Bar(ProgressBar);
+
+impl collection::Progress for Bar {
+    fn file_done(&self) {
+        self.0.inc(1);
+    }
+    fn failed(&self, failure: &Failure) {
+        self.0.suspend(|| eprintln!("skipped: {}", failure.message));
+    }
+}
+
 fn add(args: AddArgs) -> Result<ExitCode> {
-    let params = args.detect.retrieval_params();
-    let files = keycomp::mesh_files(&args.paths)?;
-    if files.is_empty() {
-        bail!("no mesh files (.off, .obj, .ply, .stl, .gltf, .glb) found in the paths given");
-    }
-    output::check_output_folder(&args.dir.index)?;
-    let mut writer = Writer::create_or_open(&args.dir.index)?;
-    // an index that has a profile keeps its description (its length unit included)
-    let existing = serde_json::from_str::<Profile>(writer.profile()).ok();
-    let describe = match existing {
-        Some(p) => {
-            let file = matches!(p.describe.units, keycomp_describe::Units::File { .. });
-            if args.units.units.is_some() && file != args.units.file() {
-                bail!(
-                    "index {} describes shapes in {} units; drop --units or use another --index",
-                    args.dir.index.display(),
-                    if file { "file" } else { "scale-free" }
-                );
-            }
-            p.describe
-        }
-        None => args.units.describe_params(|| areas_of(&files))?,
+    let options = AddOptions {
+        detect: args.detect.explicit(),
+        units: args.units.units()?,
+        keep_going: true,
     };
-    let profile = Profile::with(&params, describe);
-    writer.ensure_profile(&profile.to_text()?)?;
-    let bar = progress(files.len() as u64, "indexing");
-    let (mut added, mut replaced, mut unchanged) = (0usize, 0usize, 0usize);
-    let mut failed: Vec<String> = Vec::new();
-    for chunk in files.chunks(BATCH) {
-        let results = records_of_new(&writer, chunk, &profile, &bar);
-        let mut records = Vec::new();
-        for (p, r) in chunk.iter().cloned().zip(results) {
-            match r {
-                None => unchanged += 1,
-                Some(Ok(rec)) => records.push(rec),
-                Some(Err(e)) => {
-                    let why = naming(&p, &e);
-                    bar.suspend(|| eprintln!("skipped: {why}"));
-                    failed.push(why);
-                }
-            }
+    let files = keycomp::mesh_files(&args.paths)?;
+    let bar = Bar(progress(files.len() as u64, "indexing"));
+    let summary = collection::add(&args.dir.index, &files, &options, &bar);
+    bar.0.finish_and_clear();
+    let s = summary?;
+    if args.dir.json {
+        output::print_json(&s)?;
+    } else {
+        let mut text = String::new();
+        writeln!(
+            text,
+            "{}: {} added, {} replaced, {} unchanged, {} failed ({} shapes in the index)",
+            args.dir.index.display(),
+            s.added,
+            s.replaced,
+            s.unchanged,
+            s.failed.len(),
+            s.shapes
+        )?;
+        for f in &s.failed {
+            writeln!(text, "  failed: {}", f.message)?;
         }
-        if !records.is_empty() {
-            let s = writer.add_batch(records)?;
-            added += s.added;
-            replaced += s.replaced;
-            unchanged += s.skipped;
-        }
+        output::print_text(&text)?;
     }
-    bar.finish_and_clear();
-    let mut s = String::new();
-    writeln!(
-        s,
-        "{}: {added} added, {replaced} replaced, {unchanged} unchanged, {} failed ({} shapes in the index)",
-        args.dir.index.display(),
-        failed.len(),
-        writer.len()
-    )?;
-    for why in &failed {
-        writeln!(s, "  failed: {why}")?;
-    }
-    output::print_text(&s)?;
-    Ok(if failed.is_empty() {
+    Ok(if s.failed.is_empty() {
         ExitCode::SUCCESS
     } else {
         ExitCode::from(2)
@@ -375,49 +273,19 @@ fn stats(args: DirArgs) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// The error `e` about `path` as one line that names the file once.
-fn naming(path: &Path, e: &anyhow::Error) -> String {
-    let why = output::error_chain(e);
-    let name = path.display().to_string();
-    if why.contains(&name) {
-        why
-    } else {
-        format!("{name}: {why}")
-    }
-}
-
 fn remove(args: RemoveArgs) -> Result<ExitCode> {
-    if !args.dir.index.join(keycomp_index::MANIFEST_NAME).is_file() {
-        bail!(
-            "{}: not a keycomp index (no MANIFEST); nothing to remove",
-            args.dir.index.display()
-        );
+    let s = collection::remove(&args.dir.index, &args.paths)?;
+    if args.dir.json {
+        output::print_json(&s)?;
+    } else {
+        output::print_text(&format!(
+            "{}: removed {} shapes ({} left)\n",
+            args.dir.index.display(),
+            s.removed,
+            s.shapes
+        ))?;
     }
-    let mut writer = Writer::create_or_open(&args.dir.index)?;
-    // A folder stands for every indexed shape under it, as `index add FOLDER` adds every mesh
-    // under it (also those whose files are gone since).
-    let mut paths: Vec<PathBuf> = Vec::new();
-    for p in &args.paths {
-        if p.is_dir() {
-            let root = canonical_path(p);
-            let mut under: Vec<PathBuf> = writer
-                .canonical_paths()
-                .filter(|c| c.starts_with(&root))
-                .map(Path::to_path_buf)
-                .collect();
-            under.sort();
-            paths.extend(under);
-        } else {
-            paths.push(p.clone());
-        }
-    }
-    let n = writer.remove(&paths)?;
-    output::print_text(&format!(
-        "{}: removed {n} shapes ({} left)\n",
-        args.dir.index.display(),
-        writer.len()
-    ))?;
-    Ok(if n == 0 {
+    Ok(if s.removed == 0 {
         ExitCode::from(1)
     } else {
         ExitCode::SUCCESS
@@ -426,16 +294,7 @@ fn remove(args: RemoveArgs) -> Result<ExitCode> {
 
 fn merge(args: MergeArgs) -> Result<ExitCode> {
     let dst = &args.dir.index;
-    let mut sources = Vec::with_capacity(args.sources.len());
-    for src in &args.sources {
-        if canonical_path(src) == canonical_path(dst) {
-            bail!("{}: an index cannot be merged into itself", src.display());
-        }
-        sources.push(Reader::open(src)?);
-    }
-    output::check_output_folder(dst)?;
-    let mut writer = Writer::create_or_open(dst)?;
-    let s = writer.merge(&sources)?;
+    let s = collection::merge(dst, &args.sources)?;
     if args.dir.json {
         output::print_json(&serde_json::json!({
             "index": dst.display().to_string(),
@@ -443,18 +302,18 @@ fn merge(args: MergeArgs) -> Result<ExitCode> {
             "read": s.read,
             "added": s.added,
             "duplicates": s.duplicates,
-            "shapes": writer.len(),
+            "shapes": s.shapes,
             "generation": s.generation,
         }))?;
     } else {
         output::print_text(&format!(
             "{}: merged {} indexes: {} shapes read, {} added, {} already there ({} shapes in the index)\n",
             dst.display(),
-            sources.len(),
+            args.sources.len(),
             s.read,
             s.added,
             s.duplicates,
-            writer.len()
+            s.shapes
         ))?;
     }
     Ok(ExitCode::SUCCESS)

@@ -1,15 +1,31 @@
 //! keycomp as a library: the product's operations for programs other than the command line
-//! (the `keycomp` binary is built on it).
+//! (the `keycomp` binary and the Python package are built on it).
 //!
-//! This is the first part of the facade: [`options`] turns detection options (a preset, then
-//! single values) into parameters; [`analysis`] reads, detects (Sipiran & Bustos 2013) and
-//! describes a mesh under an index's [`Profile`], from a file or from vertices and faces in
-//! memory, and turns the result into an index record. Indexes themselves are in
-//! `keycomp_index`, matching and ranking in `keycomp_retrieval`.
+//! - [`options`] turns detection options (a preset, then single values) into parameters;
+//! - [`analysis`] reads, detects (Sipiran & Bustos 2013) and describes a mesh under an
+//!   index's [`Profile`], from a file or from vertices and faces in memory, and turns the
+//!   result into an index record;
+//! - [`collection`] adds files or meshes to an index, removes shapes, merges indexes;
+//! - [`search`] queries an index with a mesh: ranked shapes with their part-to-part matches;
+//! - [`matching`] matches two meshes part to part;
+//! - [`json`] is the JSON form of a detection (`keycomp detect --json`);
+//! - [`folders`] is the rule every output folder follows.
+//!
+//! Every result a program may keep or send on (summaries, rankings, matches) is
+//! serde-serialisable, in the form the command line prints with `--json`. The crates below
+//! hold the methods: `keycomp_mesh` (reading, writing), `keycomp_harris`, `keycomp_geodesic`,
+//! `keycomp_components` (detection), `keycomp_describe` (descriptors), `keycomp_index` (the
+//! on-disk index), `keycomp_retrieval` (matching and ranking), `keycomp_fragment` (fragments
+//! for partial queries), `keycomp_render` (pictures); `keycomp_bench` (the benchmarks) is a
+//! client of them that this library does not use.
 
 pub mod analysis;
+pub mod collection;
+pub mod folders;
 pub mod json;
+pub mod matching;
 pub mod options;
+pub mod search;
 
 pub use analysis::{
     Analysed, Error, Profile, analyse, analyse_mesh, mesh_files, query_profile, record_of,

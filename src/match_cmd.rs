@@ -3,18 +3,16 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::time::Instant;
 
 use anyhow::Result;
+use keycomp::matching::{MatchOptions, match_files};
 use keycomp_components::Detection;
-use keycomp_mesh::{Mesh, read_mesh};
-use keycomp_retrieval::MatchParams;
-use serde::Serialize;
+use keycomp_mesh::Mesh;
 
 pub use keycomp::{Analysed, analyse};
 
 use crate::detect::DetectArgs;
-use crate::index_cmd::{Profile, UnitsArgs};
+use crate::index_cmd::UnitsArgs;
 use crate::{colors, output};
 
 pub const EXAMPLES: &str = "Examples:
@@ -42,33 +40,6 @@ pub struct Args {
     /// Write B with each matched component in its pair's colour (PLY).
     #[arg(long, value_name = "OUT")]
     pub ply_b: Option<PathBuf>,
-}
-
-#[derive(Serialize)]
-struct MatchJson {
-    a_component: usize,
-    b_component: usize,
-    distance: f32,
-}
-
-#[derive(Serialize)]
-struct Report {
-    a: String,
-    b: String,
-    components_a: usize,
-    components_b: usize,
-    score: f64,
-    scale: Option<f64>,
-    rejected: usize,
-    matches: Vec<MatchJson>,
-    timings_ms: Timings,
-}
-
-#[derive(Serialize)]
-struct Timings {
-    a: f64,
-    b: f64,
-    matching: f64,
 }
 
 /// Vertex colours of one side of a match: the detection's key-components dark grey, matched
@@ -107,23 +78,18 @@ fn pair_colors(
 }
 
 pub fn run(args: Args) -> Result<ExitCode> {
-    let describe = args.units.describe_params(|| {
-        read_mesh(&args.b)
-            .map(|m| vec![keycomp_mesh::geometry::total_area(&m.mesh)])
-            .unwrap_or_default()
-    })?;
-    let params = Profile::with(&args.detect.retrieval_params(), describe);
-    let (a, b) = rayon::join(|| analyse(&args.a, &params), || analyse(&args.b, &params));
-    let (a, b) = (a?, b?);
-    let t = Instant::now();
-    let m = a.match_with(&b, &MatchParams::default());
-    let match_ms = t.elapsed().as_secs_f64() * 1e3;
+    let options = MatchOptions {
+        detect: args.detect.explicit(),
+        units: args.units.units()?.unwrap_or_default(),
+    };
+    let (a, b, m) = match_files(&args.a, &args.b, &options)?;
+    let match_ms = m.timings_ms.matching;
     if let Some(out) = &args.ply_a {
         let pairs: Vec<(usize, usize)> = m
             .matches
             .iter()
             .enumerate()
-            .map(|(k, x)| (k, x.query))
+            .map(|(k, x)| (k, x.a_component))
             .collect();
         keycomp_mesh::write_ply_colored(
             &a.mesh,
@@ -136,7 +102,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
             .matches
             .iter()
             .enumerate()
-            .map(|(k, x)| (k, x.target))
+            .map(|(k, x)| (k, x.b_component))
             .collect();
         keycomp_mesh::write_ply_colored(
             &b.mesh,
@@ -145,29 +111,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
         )?;
     }
     if args.json {
-        output::print_json(&Report {
-            a: args.a.display().to_string(),
-            b: args.b.display().to_string(),
-            components_a: a.description.components.len(),
-            components_b: b.description.components.len(),
-            score: m.score,
-            scale: m.scale,
-            rejected: m.rejected,
-            matches: m
-                .matches
-                .iter()
-                .map(|x| MatchJson {
-                    a_component: x.query,
-                    b_component: x.target,
-                    distance: x.distance,
-                })
-                .collect(),
-            timings_ms: Timings {
-                a: a.ms,
-                b: b.ms,
-                matching: match_ms,
-            },
-        })?;
+        output::print_json(&m)?;
     } else {
         let mut s = String::new();
         writeln!(
@@ -199,7 +143,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
             writeln!(
                 s,
                 "{:>4}  {:>11}  {:>11}  {:>9.4}",
-                k, x.query, x.target, x.distance
+                k, x.a_component, x.b_component, x.distance
             )?;
         }
         writeln!(

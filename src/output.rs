@@ -4,7 +4,7 @@
 use std::io::{self, Write};
 use std::path::Path;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use serde::Serialize;
 
 /// Whether an error chain ends in a broken pipe (stdout closed by `head`, a pager, …).
@@ -47,42 +47,7 @@ pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<()> {
         .with_context(|| format!("{}: cannot write", path.display()))
 }
 
-/// Creates the output folder `dir` a command was told to fill (`--out`, `--report`, `--index`)
-/// if it does not exist. Its parent must exist: keycomp creates the folder it is given, never
-/// the folders above it, as it writes output files only into folders that exist.
-pub fn create_output_folder(dir: &Path) -> Result<()> {
-    check_output_folder(dir)?;
-    if dir.is_dir() {
-        return Ok(());
-    }
-    std::fs::create_dir(dir).with_context(|| format!("{}: cannot create the folder", dir.display()))
-}
-
-/// Checks, before any work, that the folder `dir` exists or can be created by
-/// [`create_output_folder`] (its parent exists, nothing else is in its place).
-pub fn check_output_folder(dir: &Path) -> Result<()> {
-    match std::fs::metadata(dir) {
-        Ok(m) if m.is_dir() => Ok(()),
-        Ok(_) => bail!("{}: exists and is not a folder", dir.display()),
-        Err(_) => check_parent(dir),
-    }
-}
-
-fn check_parent(dir: &Path) -> Result<()> {
-    let parent = match dir.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    if !parent.is_dir() {
-        bail!(
-            "{}: cannot create the folder: {} does not exist (keycomp does not create parent \
-             folders)",
-            dir.display(),
-            parent.display()
-        );
-    }
-    Ok(())
-}
+pub use keycomp::folders::{check_output_folder, create_output_folder};
 
 /// The error and its causes on one line, `outer: inner: …`, as anyhow's `{:#}` prints them, but
 /// without a cause whose text the message before it already holds (an error that shows its

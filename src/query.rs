@@ -7,12 +7,9 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::Result;
-use keycomp_retrieval::{MatchParams, rank};
-use serde::Serialize;
+use keycomp::search::{QueryTimings, Searcher};
 
 use crate::detect::DetectArgs;
-use crate::index_cmd::open_reader_for_query;
-use crate::match_cmd::analyse;
 use crate::{output, report};
 
 pub const EXAMPLES: &str = "Examples:
@@ -43,68 +40,34 @@ pub struct Args {
     pub report: Option<PathBuf>,
 }
 
-#[derive(Serialize)]
-struct MatchJson {
-    query_component: usize,
-    target_component: usize,
-    distance: f32,
-}
-
-#[derive(Serialize)]
-struct ResultJson {
-    rank: usize,
-    path: String,
-    score: f64,
-    matches: Vec<MatchJson>,
-}
-
-#[derive(Serialize)]
-struct Timings {
-    describe: f64,
-    open: f64,
-    search: f64,
-    total: f64,
-}
-
-#[derive(Serialize)]
-struct Report {
-    query: String,
-    components: usize,
-    results: Vec<ResultJson>,
-    /// Indexed shapes that were not candidates (none of their parts is among the nearest of a
-    /// query part), so they are not ranked.
-    not_returned: Vec<String>,
-    timings_ms: Timings,
-}
-
 pub fn run(args: Args) -> Result<ExitCode> {
     if let Some(dir) = &args.report {
         // before any work: the report's folder must be creatable
         crate::output::check_output_folder(dir)?;
     }
     let t0 = Instant::now();
-    let (reader, params) = open_reader_for_query(&args.index, &args.detect)?;
-    let open_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let searcher = Searcher::open(&args.index, args.detect.explicit().as_ref())?;
+    let reader = searcher.reader();
+    let open_ms = searcher.open_ms();
     let t = Instant::now();
-    let q = analyse(&args.mesh, &params)?;
+    let q = searcher.analyse(&args.mesh)?;
     let describe_ms = t.elapsed().as_secs_f64() * 1e3;
     let t = Instant::now();
-    let (descs, layout) = q.view();
-    let ranked = rank(&reader, &descs, layout, args.k, &MatchParams::default())?;
+    let ranked = searcher.rank(&q, args.k)?;
     let search_ms = t.elapsed().as_secs_f64() * 1e3;
-    // shapes that were not candidates (only listed when the ranking is not cut by -k)
-    let not_returned: Vec<String> = if ranked.len() < args.k {
-        let seen: std::collections::BTreeSet<_> = ranked.iter().map(|r| r.id).collect();
-        reader
-            .shapes()
-            .iter()
-            .filter(|s| !seen.contains(&s.id))
-            .map(|s| s.record.path.display().to_string())
-            .collect()
-    } else {
-        Vec::new()
-    };
-    let total_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let answer = searcher.result(
+        &args.mesh.display().to_string(),
+        &q,
+        &ranked,
+        args.k,
+        QueryTimings {
+            describe: describe_ms,
+            open: open_ms,
+            search: search_ms,
+            total: t0.elapsed().as_secs_f64() * 1e3,
+        },
+    );
+    let not_returned = &answer.not_returned;
     let report = match &args.report {
         Some(dir) => {
             let entry = report::QueryEntry {
@@ -115,7 +78,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
             };
             Some(report::write_report(
                 dir,
-                &reader,
+                reader,
                 &[entry],
                 &report::ReportParams::default(),
             )?)
@@ -127,47 +90,18 @@ pub fn run(args: Args) -> Result<ExitCode> {
         if let Some(page) = &report {
             eprintln!("report: {}", page.display()); // stdout is the JSON
         }
-        output::print_json(&Report {
-            not_returned,
-            query: args.mesh.display().to_string(),
-            components: descs.len(),
-            results: ranked
-                .iter()
-                .enumerate()
-                .map(|(i, r)| ResultJson {
-                    rank: i + 1,
-                    path: r.path.display().to_string(),
-                    score: r.result.score,
-                    matches: r
-                        .result
-                        .matches
-                        .iter()
-                        .map(|m| MatchJson {
-                            query_component: m.query,
-                            target_component: m.target,
-                            distance: m.distance,
-                        })
-                        .collect(),
-                })
-                .collect(),
-            timings_ms: Timings {
-                describe: describe_ms,
-                open: open_ms,
-                search: search_ms,
-                total: total_ms,
-            },
-        })?;
+        output::print_json(&answer)?;
     } else {
         let mut s = String::new();
         writeln!(
             s,
             "{}: {} parts; {} shapes in {}",
             args.mesh.display(),
-            descs.len(),
+            answer.components,
             reader.shapes().len(),
             args.index.display()
         )?;
-        if descs.is_empty() {
+        if answer.components == 0 {
             writeln!(
                 s,
                 "no parts found in the query (an empty mesh?): nothing to match"

@@ -251,10 +251,23 @@ fn index_profile_keeps_descriptors_comparable() {
     // adding with other parameters is refused and changes nothing
     let manifest = index.join("MANIFEST");
     let before = std::fs::read(&manifest).expect("manifest");
-    let o = keycomp(&["index", "add", s(&other), "--index", s(&index)]);
+    let o = keycomp(&[
+        "index",
+        "add",
+        s(&other),
+        "--index",
+        s(&index),
+        "--preset",
+        "kc3",
+    ]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("made another way"), "{}", stderr(&o));
     assert_eq!(std::fs::read(&manifest).expect("manifest"), before);
+    // adding without options uses the index's parameters, as a query does
+    let o = keycomp(&["index", "add", s(&other), "--index", s(&index), "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let added: Value = serde_json::from_slice(&o.stdout).expect("json");
+    assert_eq!(added["added"], 1);
 
     // an index with shapes but no profile (as every format-1 index) is refused for queries
     let bare = dir.path().join("bare");

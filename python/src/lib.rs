@@ -6,12 +6,12 @@
 use std::path::PathBuf;
 
 use keycomp_components::{Detection, Preset, detect as detect_components};
+use keycomp_core::collection::{self, AddOptions};
+use keycomp_core::matching::match_analysed;
 use keycomp_core::options::DetectOptions;
+use keycomp_core::search::{Hit, Searcher};
 use keycomp_core::{Analysed, Profile, analyse, analyse_mesh};
-use keycomp_describe::DIM;
-use keycomp_index::{IndexReader, IndexWriter};
 use keycomp_mesh::{Mesh, MeshError, Point3, read_mesh as read_mesh_file};
-use keycomp_retrieval::{MatchParams, rank};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2};
 use pyo3::exceptions::{PyOSError, PyValueError};
 use pyo3::prelude::*;
@@ -329,12 +329,12 @@ impl Match {
     }
 }
 
-fn matches_of(m: &keycomp_retrieval::ShapeMatch) -> Vec<Match> {
-    m.matches
+fn matches_of(hit: &Hit) -> Vec<Match> {
+    hit.matches
         .iter()
         .map(|c| Match {
-            query_component: c.query,
-            target_component: c.target,
+            query_component: c.query_component,
+            target_component: c.target_component,
             distance: c.distance,
         })
         .collect()
@@ -397,12 +397,19 @@ fn match_meshes(
     let (a, b) = (mesh_input(a, None)?, mesh_input(b, None)?);
     py.detach(|| {
         let profile = Profile::current(&DetectOptions::default().retrieval_params());
-        let a = analyse_input(a, &profile)?;
-        let b = analyse_input(b, &profile)?;
-        let m = a.match_with(&b, &MatchParams::default());
+        let (a, b) = rayon::join(|| analyse_input(a, &profile), || analyse_input(b, &profile));
+        let m = match_analysed(&a?, &b?, ("a", "b"));
         Ok(MatchResult {
             score: m.score,
-            matches: matches_of(&m),
+            matches: m
+                .matches
+                .iter()
+                .map(|p| Match {
+                    query_component: p.a_component,
+                    target_component: p.b_component,
+                    distance: p.distance,
+                })
+                .collect(),
             rejected: m.rejected,
             scale: m.scale,
         })
@@ -414,24 +421,6 @@ fn match_meshes(
 #[pyclass(module = "keycomp")]
 struct Index {
     path: PathBuf,
-}
-
-impl Index {
-    fn profile(&self, writer: &IndexWriter<DIM>) -> PyResult<Profile> {
-        match serde_json::from_str::<Profile>(writer.profile()) {
-            Ok(p) => Ok(p),
-            Err(_) if writer.is_empty() => Ok(Profile::current(
-                &DetectOptions::default().retrieval_params(),
-            )),
-            Err(_) => Err(py_err(
-                format!(
-                    "index {} has no readable profile; rebuild it with this keycomp",
-                    self.path.display()
-                ),
-                false,
-            )),
-        }
-    }
 }
 
 #[pymethods]
@@ -467,28 +456,10 @@ impl Index {
                 ));
             }
         }
-        let files = keycomp_core::mesh_files(&paths).map_err(analysis_err)?;
         py.detach(|| {
-            let mut w = IndexWriter::<DIM>::create_or_open(&self.path).map_err(index_err)?;
-            let profile = self.profile(&w)?;
-            w.ensure_profile(&profile.to_text().map_err(analysis_err)?)
-                .map_err(index_err)?;
-            let mut records = Vec::new();
-            let made = keycomp_core::records_of_new(
-                &files,
-                &profile,
-                |c| w.lookup(c).map(|(_, h)| h),
-                || {},
-            );
-            for r in made.into_iter().flatten() {
-                records.push(r.map_err(analysis_err)?);
-            }
-            for (name, mesh) in meshes {
-                records.push(
-                    keycomp_core::record_of_mesh(mesh, &name, &profile).map_err(analysis_err)?,
-                );
-            }
-            let s = w.add_batch(records).map_err(index_err)?;
+            let files = keycomp_core::mesh_files(&paths).map_err(analysis_err)?;
+            let s = collection::add_items(&self.path, &files, meshes, &AddOptions::default(), &())
+                .map_err(analysis_err)?;
             Ok(s.added + s.replaced)
         })
     }
@@ -497,27 +468,19 @@ impl Index {
     /// `keycomp index merge`; returns the number of shapes added.
     fn merge(&self, py: Python<'_>, sources: Vec<PathBuf>) -> PyResult<usize> {
         py.detach(|| {
-            let readers = sources
-                .iter()
-                .map(IndexReader::<DIM>::open)
-                .collect::<Result<Vec<_>, _>>()
-                .map_err(index_err)?;
-            let mut w = IndexWriter::<DIM>::create_or_open(&self.path).map_err(index_err)?;
-            Ok(w.merge(&readers).map_err(index_err)?.added)
+            Ok(collection::merge(&self.path, &sources)
+                .map_err(analysis_err)?
+                .added)
         })
     }
 
-    /// Removes shapes by path; returns how many were removed.
+    /// Removes shapes by path (a folder: every indexed shape under it); returns how many were
+    /// removed.
     fn remove(&self, py: Python<'_>, paths: Vec<PathBuf>) -> PyResult<usize> {
         py.detach(|| {
-            if !self.path.join(keycomp_index::MANIFEST_NAME).is_file() {
-                return Err(py_err(
-                    format!("{}: not a keycomp index", self.path.display()),
-                    false,
-                ));
-            }
-            let mut w = IndexWriter::<DIM>::create_or_open(&self.path).map_err(index_err)?;
-            w.remove(&paths).map_err(index_err)
+            Ok(collection::remove(&self.path, &paths)
+                .map_err(analysis_err)?
+                .removed)
         })
     }
 
@@ -534,24 +497,19 @@ impl Index {
         }
         let input = mesh_input(mesh, None)?;
         py.detach(|| {
-            let reader = IndexReader::<DIM>::open(&self.path).map_err(index_err)?;
-            let profile = keycomp_core::query_profile(
-                &self.path,
-                reader.profile(),
-                reader.shapes().len(),
-                &Profile::current(&DetectOptions::default().retrieval_params()),
-                true,
-            )
+            let searcher = Searcher::open(&self.path, None).map_err(analysis_err)?;
+            let answer = match input {
+                MeshInput::Path(p) => searcher.query(&p, k),
+                MeshInput::Mesh(m) => searcher.query_mesh("query", m, k),
+            }
             .map_err(analysis_err)?;
-            let q = analyse_input(input, &profile)?;
-            let (d, l) = q.view();
-            let ranked = rank(&reader, &d, l, k, &MatchParams::default()).map_err(index_err)?;
-            Ok(ranked
-                .into_iter()
-                .map(|r| QueryResult {
-                    path: r.path.display().to_string(),
-                    score: r.result.score,
-                    matches: matches_of(&r.result),
+            Ok(answer
+                .results
+                .iter()
+                .map(|h| QueryResult {
+                    path: h.path.clone(),
+                    score: h.score,
+                    matches: matches_of(h),
                 })
                 .collect())
         })
@@ -562,7 +520,7 @@ impl Index {
             if !self.path.join(keycomp_index::MANIFEST_NAME).is_file() {
                 return Ok(0);
             }
-            Ok(IndexReader::<DIM>::open(&self.path)
+            Ok(collection::Reader::open(&self.path)
                 .map_err(index_err)?
                 .shapes()
                 .len())

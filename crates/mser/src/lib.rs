@@ -27,8 +27,8 @@
 //! ```
 
 pub mod detect;
-mod method;
 mod error;
+mod method;
 pub mod stable;
 pub mod tree;
 

@@ -1,0 +1,128 @@
+//! Matching two meshes part to part (`keycomp match`): both are analysed under one profile and
+//! their parts paired by Kuhn–Munkres on descriptor distances, then checked for a consistent
+//! layout (`keycomp_retrieval::match_shapes`).
+
+use std::path::Path;
+use std::time::Instant;
+
+use keycomp_components::DetectParams;
+use keycomp_mesh::read_mesh;
+use keycomp_retrieval::MatchParams;
+use serde::{Deserialize, Serialize};
+
+use crate::collection::Units;
+use crate::options::DetectOptions;
+use crate::{Analysed, Error, Profile, analyse};
+
+/// A part of A paired with a part of B.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PairMatch {
+    /// A's part (index into its description's parts).
+    pub a_component: usize,
+    /// B's part.
+    pub b_component: usize,
+    /// Descriptor distance of the pair.
+    pub distance: f32,
+}
+
+/// Where a match's time went, in milliseconds.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct MatchTimings {
+    /// Analysing A (reading included for a file).
+    pub a: f64,
+    /// Analysing B.
+    pub b: f64,
+    /// Matching.
+    pub matching: f64,
+}
+
+/// The match of A (the query side: the score is relative to its parts) against B, as
+/// `keycomp match --json` prints it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MatchResult {
+    /// A's name.
+    pub a: String,
+    /// B's name.
+    pub b: String,
+    /// Parts of A.
+    pub components_a: usize,
+    /// Parts of B.
+    pub components_b: usize,
+    /// Score in [0, 1].
+    pub score: f64,
+    /// Estimated B/A length ratio, when three or more matches allowed an estimate.
+    pub scale: Option<f64>,
+    /// Pairs dropped by the layout check.
+    pub rejected: usize,
+    /// The kept pairs, ordered by A's part.
+    pub matches: Vec<PairMatch>,
+    /// Where the time went.
+    pub timings_ms: MatchTimings,
+}
+
+/// How [`match_files`] analyses the two meshes.
+#[derive(Debug, Clone, Default)]
+pub struct MatchOptions {
+    /// Detection parameters; `None`: the retrieval default.
+    pub detect: Option<DetectParams>,
+    /// Length unit; a file unit not given is the square root of B's area.
+    pub units: Units,
+}
+
+/// Matches two analysed meshes, named `a` and `b` in the result.
+pub fn match_analysed(a: &Analysed, b: &Analysed, names: (&str, &str)) -> MatchResult {
+    let t = Instant::now();
+    let m = a.match_with(b, &MatchParams::default());
+    let matching = t.elapsed().as_secs_f64() * 1e3;
+    MatchResult {
+        a: names.0.to_string(),
+        b: names.1.to_string(),
+        components_a: a.description.components.len(),
+        components_b: b.description.components.len(),
+        score: m.score,
+        scale: m.scale,
+        rejected: m.rejected,
+        matches: m
+            .matches
+            .iter()
+            .map(|x| PairMatch {
+                a_component: x.query,
+                b_component: x.target,
+                distance: x.distance,
+            })
+            .collect(),
+        timings_ms: MatchTimings {
+            a: a.ms,
+            b: b.ms,
+            matching,
+        },
+    }
+}
+
+/// The profile both sides of a match are analysed under.
+pub fn match_profile(options: &MatchOptions, b: &Path) -> Result<Profile, Error> {
+    let describe = options.units.describe_params(|| {
+        read_mesh(b)
+            .map(|m| vec![keycomp_mesh::geometry::total_area(&m.mesh)])
+            .unwrap_or_default()
+    })?;
+    let detect = options
+        .detect
+        .clone()
+        .unwrap_or_else(|| DetectOptions::default().retrieval_params());
+    Ok(Profile::with(&detect, describe))
+}
+
+/// Reads, analyses (in parallel) and matches the mesh files `a` and `b`; returns both
+/// analyses and the match.
+pub fn match_files(
+    a: &Path,
+    b: &Path,
+    options: &MatchOptions,
+) -> Result<(Analysed, Analysed, MatchResult), Error> {
+    let profile = match_profile(options, b)?;
+    let (x, y) = rayon::join(|| analyse(a, &profile), || analyse(b, &profile));
+    let (x, y) = (x?, y?);
+    let m = match_analysed(&x, &y, (&a.display().to_string(), &b.display().to_string()));
+    Ok((x, y, m))
+}

@@ -1,0 +1,225 @@
+//! Querying an index with a mesh (`keycomp query`): the query is analysed under the index's
+//! profile, its parts' nearest index parts vote for candidate shapes, and the best-voted
+//! candidates are matched part to part and ranked by score (`keycomp_retrieval::rank`).
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use keycomp_components::DetectParams;
+use keycomp_mesh::Mesh;
+use keycomp_retrieval::{MatchParams, Ranked, rank};
+use serde::{Deserialize, Serialize};
+
+use crate::collection::Reader;
+use crate::options::DetectOptions;
+use crate::{Analysed, Error, Profile, analyse, analyse_mesh, query_profile};
+
+/// A part of the query matched to a part of a result.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PartMatch {
+    /// The query's part (index into its description's parts).
+    pub query_component: usize,
+    /// The result's part (index into its record's parts).
+    pub target_component: usize,
+    /// Descriptor distance of the pair.
+    pub distance: f32,
+}
+
+/// One ranked shape.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Hit {
+    /// 1 for the best.
+    pub rank: usize,
+    /// The shape's path as indexed.
+    pub path: String,
+    /// Score in [0, 1] (`keycomp_retrieval::ShapeMatch::score`).
+    pub score: f64,
+    /// The matched parts.
+    pub matches: Vec<PartMatch>,
+}
+
+/// Where a query's time went, in milliseconds.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct QueryTimings {
+    /// Reading, detecting and describing the query.
+    pub describe: f64,
+    /// Opening the index.
+    pub open: f64,
+    /// Candidate search, matching and ranking.
+    pub search: f64,
+    /// All of it.
+    pub total: f64,
+}
+
+/// A query's answer, as `keycomp query --json` prints it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct QueryResult {
+    /// The query's name (its path for a file).
+    pub query: String,
+    /// Parts of the query.
+    pub components: usize,
+    /// The ranked shapes, best first.
+    pub results: Vec<Hit>,
+    /// Indexed shapes that were not candidates (none of their parts is among the nearest of a
+    /// query part), so not ranked; listed only when the ranking is not cut by `k`.
+    pub not_returned: Vec<String>,
+    /// Where the time went.
+    pub timings_ms: QueryTimings,
+}
+
+/// An index opened for queries, with the profile queries are analysed under.
+pub struct Searcher {
+    dir: PathBuf,
+    reader: Reader,
+    profile: Profile,
+    open_ms: f64,
+}
+
+impl Searcher {
+    /// Opens the index at `dir` for queries. The query's profile is always the index's
+    /// description (its length unit included), and its detection parameters unless `detect`
+    /// asks for others than the default; other parameters than the index's, another
+    /// descriptor version or an index without a profile are [`Error::Incomparable`]
+    /// ([`query_profile`]).
+    pub fn open(dir: &Path, detect: Option<&DetectParams>) -> Result<Searcher, Error> {
+        let t = Instant::now();
+        let reader = Reader::open(dir)?;
+        let default = DetectOptions::default().retrieval_params();
+        let mine = Profile::current(detect.unwrap_or(&default));
+        let profile = query_profile(
+            dir,
+            reader.profile(),
+            reader.shapes().len(),
+            &mine,
+            detect.is_none_or(|d| *d == default),
+        )?;
+        Ok(Searcher {
+            dir: dir.to_path_buf(),
+            reader,
+            profile,
+            open_ms: t.elapsed().as_secs_f64() * 1e3,
+        })
+    }
+
+    /// The index folder.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// The index.
+    pub fn reader(&self) -> &Reader {
+        &self.reader
+    }
+
+    /// The profile queries are analysed under.
+    pub fn profile(&self) -> &Profile {
+        &self.profile
+    }
+
+    /// Time spent opening the index, in milliseconds.
+    pub fn open_ms(&self) -> f64 {
+        self.open_ms
+    }
+
+    /// Reads and analyses a query file under the index's profile.
+    pub fn analyse(&self, path: &Path) -> Result<Analysed, Error> {
+        analyse(path, &self.profile)
+    }
+
+    /// Analyses a query mesh in memory under the index's profile.
+    pub fn analyse_mesh(&self, mesh: Mesh) -> Result<Analysed, Error> {
+        analyse_mesh(mesh, &self.profile)
+    }
+
+    /// The `k` best shapes for an analysed query, best first (fewer when fewer shapes are
+    /// candidates).
+    pub fn rank(&self, query: &Analysed, k: usize) -> Result<Vec<Ranked>, Error> {
+        if k == 0 {
+            return Err(Error::Invalid("k must be at least 1".into()));
+        }
+        let (descriptors, layout) = query.view();
+        Ok(rank(
+            &self.reader,
+            &descriptors,
+            layout,
+            k,
+            &MatchParams::default(),
+        )?)
+    }
+
+    /// The serialisable answer for a query named `name` with its ranking `ranked` (from
+    /// [`Searcher::rank`] with `k`).
+    pub fn result(
+        &self,
+        name: &str,
+        query: &Analysed,
+        ranked: &[Ranked],
+        k: usize,
+        timings_ms: QueryTimings,
+    ) -> QueryResult {
+        let not_returned = if ranked.len() < k {
+            let seen: std::collections::BTreeSet<_> = ranked.iter().map(|r| r.id).collect();
+            self.reader
+                .shapes()
+                .iter()
+                .filter(|s| !seen.contains(&s.id))
+                .map(|s| s.record.path.display().to_string())
+                .collect()
+        } else {
+            Vec::new()
+        };
+        QueryResult {
+            query: name.to_string(),
+            components: query.description.components.len(),
+            results: ranked
+                .iter()
+                .enumerate()
+                .map(|(i, r)| Hit {
+                    rank: i + 1,
+                    path: r.path.display().to_string(),
+                    score: r.result.score,
+                    matches: r
+                        .result
+                        .matches
+                        .iter()
+                        .map(|m| PartMatch {
+                            query_component: m.query,
+                            target_component: m.target,
+                            distance: m.distance,
+                        })
+                        .collect(),
+                })
+                .collect(),
+            not_returned,
+            timings_ms,
+        }
+    }
+
+    /// Analyses the query file at `path` and ranks the index for it: the `k` best shapes.
+    pub fn query(&self, path: &Path, k: usize) -> Result<QueryResult, Error> {
+        let t = Instant::now();
+        let q = self.analyse(path)?;
+        self.answer(&path.display().to_string(), &q, k, t)
+    }
+
+    /// Analyses the query mesh in memory, named `name`, and ranks the index for it.
+    pub fn query_mesh(&self, name: &str, mesh: Mesh, k: usize) -> Result<QueryResult, Error> {
+        let t = Instant::now();
+        let q = self.analyse_mesh(mesh)?;
+        self.answer(name, &q, k, t)
+    }
+
+    fn answer(&self, name: &str, q: &Analysed, k: usize, t: Instant) -> Result<QueryResult, Error> {
+        let describe = t.elapsed().as_secs_f64() * 1e3;
+        let s = Instant::now();
+        let ranked = self.rank(q, k)?;
+        let search = s.elapsed().as_secs_f64() * 1e3;
+        let timings = QueryTimings {
+            describe,
+            open: self.open_ms,
+            search,
+            total: self.open_ms + t.elapsed().as_secs_f64() * 1e3,
+        };
+        Ok(self.result(name, q, &ranked, k, timings))
+    }
+}
