@@ -4,15 +4,19 @@
 //! up to ±0.01 (so a 200-shape index of about 90 parts per shape grows to any size with
 //! realistic descriptors); queries are indexed shapes' descriptors and layout, perturbed alike.
 //!
-//! `cargo run --release -p keycomp-retrieval --example query_scale -- [SIZES] [INDEX]`
+//! `cargo run --release -p keycomp-retrieval --example query_scale -- [SIZES] [INDEX] [QUERIES]`
 //! (SIZES: comma-separated shape counts, default 1000,10000,100000; INDEX: an index directory to
-//! take records from). Prints a markdown table.
+//! take records from; QUERIES: queries per size, default 20). Prints a markdown table, medians
+//! over the queries: the candidate search alone (the searches of every query part), `rank` for
+//! the top 10 and `rank` of every candidate (which must agree on the top 10), with the default
+//! search (approximate from `keycomp_index::IVF_MIN_COMPONENTS` components) and with the exact
+//! one (`SearchMode::Exact`), and how many queries get the exact search's top 10.
 
 use std::time::Instant;
 
 use keycomp_describe::DIM;
-use keycomp_index::{IndexReader, IndexWriter, synthetic};
-use keycomp_retrieval::{MatchParams, rank};
+use keycomp_index::{IndexReader, IndexWriter, SearchMode, synthetic};
+use keycomp_retrieval::{CANDIDATES_PER_COMPONENT, MatchParams, rank};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -28,6 +32,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .split(',')
         .map(|s| s.trim().parse())
         .collect::<Result<_, _>>()?;
+    let queries: usize = match std::env::args().nth(3) {
+        Some(q) => q.parse()?,
+        None => 20,
+    };
     let source: Option<Vec<keycomp_index::ShapeRecord<DIM>>> = match std::env::args().nth(2) {
         Some(dir) => Some(
             IndexReader::<DIM>::open(&dir)?
@@ -61,9 +69,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     };
     println!(
-        "| shapes | components | open (ms) | first query incl. KD-tree build (ms) | query (ms, median of 20) |"
+        "| shapes | components | open (ms) | search build (ms) | search memory (MB) | candidate search (ms) | query, top 10 (ms) | query, every candidate (ms) | exact: build (ms) | exact: candidate search (ms) | exact: query, top 10 (ms) | top 10 as exact (same order / same set) |"
     );
-    println!("|---:|---:|---:|---:|---:|");
+    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for n in sizes {
         let dir = tempfile::tempdir()?;
         {
@@ -83,6 +91,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             drop(r);
         }
         let reader = IndexReader::<DIM>::open(dir.path())?;
+        let exact = IndexReader::<DIM>::open(dir.path())?.with_search_mode(SearchMode::Exact);
         let mut rng = ChaCha8Rng::seed_from_u64(1);
         let make_query = |rng: &mut ChaCha8Rng| {
             let id = reader.shapes()[rng.random_range(0..reader.shapes().len())].id;
@@ -103,24 +112,55 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             })
         };
         let params = MatchParams::default();
-        let (d0, l0) = make_query(&mut rng).ok_or("empty index")?;
-        let t = Instant::now();
-        rank(&reader, &d0, &l0, 10, &params)?;
-        let first = t.elapsed().as_secs_f64() * 1e3;
-        let mut times = Vec::new();
-        for _ in 0..20 {
+        let build = reader.prepare_search().as_secs_f64() * 1e3;
+        let exact_build = exact.prepare_search().as_secs_f64() * 1e3;
+        let mb = reader.search_bytes() as f64 / 1e6;
+        let (mut search, mut times, mut full) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut exact_search, mut exact_times) = (Vec::new(), Vec::new());
+        let (mut same, mut same_set) = (0, 0);
+        for _ in 0..queries {
             let (d, l) = make_query(&mut rng).ok_or("empty index")?;
+            let t = Instant::now();
+            reader.nearest_components_batch(&d, CANDIDATES_PER_COMPONENT)?;
+            search.push(t.elapsed().as_secs_f64() * 1e3);
             let t = Instant::now();
             let r = rank(&reader, &d, &l, 10, &params)?;
             times.push(t.elapsed().as_secs_f64() * 1e3);
             assert!(!r.is_empty());
+            let t = Instant::now();
+            let all = rank(&reader, &d, &l, usize::MAX, &params)?;
+            full.push(t.elapsed().as_secs_f64() * 1e3);
+            assert!(
+                r.iter()
+                    .zip(&all)
+                    .all(|(a, b)| a.id == b.id && a.result == b.result)
+            );
+            let t = Instant::now();
+            exact.nearest_components_batch(&d, CANDIDATES_PER_COMPONENT)?;
+            exact_search.push(t.elapsed().as_secs_f64() * 1e3);
+            let t = Instant::now();
+            let e = rank(&exact, &d, &l, 10, &params)?;
+            exact_times.push(t.elapsed().as_secs_f64() * 1e3);
+            let ids = |v: &[keycomp_retrieval::Ranked]| v.iter().map(|x| x.id).collect::<Vec<_>>();
+            same += usize::from(ids(&r) == ids(&e));
+            let mut a = ids(&r);
+            let mut b = ids(&e);
+            a.sort_unstable();
+            b.sort_unstable();
+            same_set += usize::from(a == b);
         }
         println!(
-            "| {n} | {} | {:.1} | {:.1} | {:.2} |",
+            "| {n} | {} | {:.1} | {:.0} | {:.0} | {:.2} | {:.2} | {:.2} | {:.0} | {:.2} | {:.2} | {same} / {same_set} of {queries} |",
             reader.component_count(),
             median(opens),
-            first,
-            median(times)
+            build,
+            mb,
+            median(search),
+            median(times),
+            median(full),
+            exact_build,
+            median(exact_search),
+            median(exact_times),
         );
     }
     Ok(())

@@ -32,7 +32,7 @@ mod query;
 
 pub use query::{CANDIDATES_PER_COMPONENT, MATCHED_CANDIDATES, Ranked, idf_weights, rank};
 
-use keycomp_describe::{Descriptor, distance};
+use keycomp_describe::Descriptor;
 use pathfinding::kuhn_munkres::kuhn_munkres;
 use pathfinding::matrix::Matrix;
 use serde::{Deserialize, Serialize};
@@ -105,16 +105,19 @@ pub struct ShapeMatch {
     pub rejected: usize,
 }
 
-fn median(mut v: Vec<f64>) -> Option<f64> {
-    if v.is_empty() {
+/// The median of `v` (the mean of the two middle values for an even count), reordering `v`.
+fn median_in_place(v: &mut [f64]) -> Option<f64> {
+    let n = v.len();
+    if n == 0 {
         return None;
     }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
+    let (low, mid, _) = v.select_nth_unstable_by(n / 2, f64::total_cmp);
+    let mid = *mid;
     Some(if n % 2 == 1 {
-        v[n / 2]
+        mid
     } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
+        let below = low.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        0.5 * (below + mid)
     })
 }
 
@@ -133,14 +136,74 @@ pub fn match_weighted(
     params: &MatchParams,
     weights: &[f64],
 ) -> ShapeMatch {
+    let d = distances(query.descriptors, target.descriptors);
+    match_distances(query, target, &d, params, weights)
+}
+
+/// The weight of query part `i`: `weights[i]` when it is a finite number ≥ 0, else 1.
+fn part_weight(weights: &[f64], i: usize) -> f64 {
+    weights
+        .get(i)
+        .copied()
+        .filter(|w| w.is_finite() && *w >= 0.0)
+        .unwrap_or(1.0)
+}
+
+/// Descriptor distances of every query part to every target part, `mq × mt` row-major.
+pub(crate) fn distances(query: &[Descriptor], target: &[Descriptor]) -> Vec<f32> {
+    let mt = target.len();
+    (0..query.len() * mt)
+        .map(|k| keycomp_index::squared_distance_fast(&query[k / mt], &target[k % mt]).sqrt())
+        .collect()
+}
+
+/// An upper bound of [`match_weighted`]'s score from its distance matrix `d`: the smaller of
+/// two sums, every query part counted with its best weighted similarity to any target part, and
+/// every target part with its best weighted similarity to any query part (a one-to-one
+/// assignment gives each part at most that, and the layout check only drops pairs).
+pub(crate) fn score_bound(
+    mq: usize,
+    mt: usize,
+    d: &[f32],
+    params: &MatchParams,
+    weights: &[f64],
+) -> f64 {
+    let weight_of = |i: usize| part_weight(weights, i);
+    let max_d = params.max_distance.max(f32::MIN_POSITIVE);
+    let total: f64 = (0..mq).map(weight_of).sum();
+    if total <= 0.0 || mt == 0 {
+        return 0.0;
+    }
+    let sim = |dd: f32| (1.0 - (dd / max_d) as f64).max(0.0);
+    let rows: f64 = (0..mq)
+        .map(|i| {
+            let best = d[i * mt..(i + 1) * mt]
+                .iter()
+                .copied()
+                .fold(f32::INFINITY, f32::min);
+            sim(best) * weight_of(i)
+        })
+        .sum();
+    let mut cols = vec![0f64; mt];
+    for i in 0..mq {
+        let w = weight_of(i);
+        for (c, &dd) in cols.iter_mut().zip(&d[i * mt..(i + 1) * mt]) {
+            *c = c.max(sim(dd) * w);
+        }
+    }
+    rows.min(cols.iter().sum::<f64>()) / total
+}
+
+/// [`match_weighted`] given the distance matrix `d` ([`distances`]).
+pub(crate) fn match_distances(
+    query: ShapeView,
+    target: ShapeView,
+    d: &[f32],
+    params: &MatchParams,
+    weights: &[f64],
+) -> ShapeMatch {
     let (mq, mt) = (query.descriptors.len(), target.descriptors.len());
-    let weight_of = |i: usize| {
-        weights
-            .get(i)
-            .copied()
-            .filter(|w| w.is_finite() && *w >= 0.0)
-            .unwrap_or(1.0)
-    };
+    let weight_of = |i: usize| part_weight(weights, i);
     let empty = ShapeMatch {
         matches: Vec::new(),
         score: 0.0,
@@ -151,9 +214,6 @@ pub fn match_weighted(
         return empty;
     }
     let max_d = params.max_distance.max(f32::MIN_POSITIVE);
-    let d: Vec<f32> = (0..mq * mt)
-        .map(|k| distance(&query.descriptors[k / mt], &target.descriptors[k % mt]))
-        .collect();
     const SCALE: f64 = 1e6;
     let weight = |i: usize, dd: f32| -> i64 {
         let w = (1.0 - dd / max_d).max(0.0) as f64 * weight_of(i);
@@ -190,55 +250,79 @@ pub fn match_weighted(
         .collect();
     matches.sort_by_key(|m| m.query);
 
-    let tol = params.layout_tolerance.max(1.0).ln();
+    // |ln(r / s)| > ln(T) ⇔ r / s outside [1/T, T]: compared without a logarithm per pair
+    let tol = params.layout_tolerance.max(1.0);
     let mut rejected = 0;
     let mut scale = None;
-    while matches.len() >= 3 {
-        let k = matches.len();
-        let ratio = |x: &ComponentMatch, y: &ComponentMatch| -> Option<f64> {
-            let (dq, dt) = (
-                query.dist(x.query, y.query),
-                target.dist(x.target, y.target),
-            );
-            (dq > 0.0 && dt > 0.0 && dq.is_finite() && dt.is_finite()).then(|| dt / dq)
-        };
-        let mut ratios = Vec::new();
-        for a in 0..k {
-            for b in a + 1..k {
-                if let Some(r) = ratio(&matches[a], &matches[b]) {
-                    ratios.push(r);
+    // ratios dt/dq of every pair of matches, computed once (NaN: no distance on one side)
+    let k0 = matches.len();
+    let mut ratios = vec![f64::NAN; k0 * k0];
+    if k0 >= 3 {
+        for a in 0..k0 {
+            for b in a + 1..k0 {
+                let (x, y) = (&matches[a], &matches[b]);
+                let (dq, dt) = (
+                    query.dist(x.query, y.query),
+                    target.dist(x.target, y.target),
+                );
+                if dq > 0.0 && dt > 0.0 && dq.is_finite() && dt.is_finite() {
+                    ratios[a * k0 + b] = dt / dq;
+                    ratios[b * k0 + a] = dt / dq;
                 }
             }
         }
-        let Some(s) = median(ratios) else { break };
+    }
+    // positions (in the original order) of the matches still kept
+    let mut alive: Vec<usize> = (0..k0).collect();
+    let mut pooled = Vec::with_capacity(k0 * k0 / 2);
+    while alive.len() >= 3 {
+        pooled.clear();
+        for (i, &a) in alive.iter().enumerate() {
+            for &b in &alive[i + 1..] {
+                let r = ratios[a * k0 + b];
+                if !r.is_nan() {
+                    pooled.push(r);
+                }
+            }
+        }
+        let Some(s) = median_in_place(&mut pooled) else {
+            break;
+        };
         scale = Some(s);
-        // per match: (pairs that disagree, pairs with a distance on both sides)
-        let counts: Vec<(usize, usize)> = (0..k)
-            .map(|a| {
-                (0..k)
-                    .filter(|&b| b != a)
-                    .filter_map(|b| ratio(&matches[a], &matches[b]))
+        // per kept match: (pairs that disagree, pairs with a distance on both sides)
+        let counts: Vec<(usize, usize)> = alive
+            .iter()
+            .map(|&a| {
+                alive
+                    .iter()
+                    .filter(|&&b| b != a)
+                    .map(|&b| ratios[a * k0 + b])
+                    .filter(|r| !r.is_nan())
                     .fold((0, 0), |(bad, all), r| {
-                        (bad + usize::from((r / s).ln().abs() > tol), all + 1)
+                        let q = r / s;
+                        (bad + usize::from(q > tol || q * tol < 1.0), all + 1)
                     })
             })
             .collect();
-        let bad: Vec<usize> = counts.iter().map(|c| c.0).collect();
-        let worst = (0..k).max_by(|&a, &b| {
-            bad[a].cmp(&bad[b]).then(
-                matches[a]
+        let worst = (0..alive.len()).max_by(|&i, &j| {
+            counts[i].0.cmp(&counts[j].0).then(
+                matches[alive[i]]
                     .distance
-                    .total_cmp(&matches[b].distance)
-                    .then(b.cmp(&a)),
+                    .total_cmp(&matches[alive[j]].distance)
+                    .then(j.cmp(&i)),
             )
         });
         match worst {
-            Some(w) if 2 * bad[w] > counts[w].1 => {
-                matches.remove(w);
+            Some(w) if 2 * counts[w].0 > counts[w].1 => {
+                alive.remove(w);
                 rejected += 1;
             }
             _ => break,
         }
+    }
+    if alive.len() < k0 {
+        let keep: Vec<ComponentMatch> = alive.iter().map(|&a| matches[a]).collect();
+        matches = keep;
     }
     let total: f64 = (0..mq).map(weight_of).sum();
     let score = if total > 0.0 {
@@ -393,6 +477,38 @@ mod tests {
         assert_eq!(m.matches.len(), 6);
         assert_eq!(m.rejected, 0);
         assert!((m.score - 1.0).abs() < 1e-9);
+    }
+
+    proptest::proptest! {
+        /// The bound the ranking prunes with is never below the score: random descriptors
+        /// near each other, random layouts and weights.
+        #[test]
+        fn score_bound_is_an_upper_bound(
+            seed in 0u64..1000,
+            mq in 1usize..9,
+            mt in 1usize..9,
+        ) {
+            use rand::{Rng, SeedableRng};
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+            let mut descs = |m: usize| -> Vec<Descriptor> {
+                (0..m)
+                    .map(|_| std::array::from_fn(|_| rng.random_range(0.0f32..0.12)))
+                    .collect()
+            };
+            let (dq, dt) = (descs(mq), descs(mt));
+            let mut layout = |m: usize| -> Vec<f32> {
+                (0..m * m).map(|k| if k / m == k % m { 0.0 } else { rng.random_range(0.1f32..2.0) }).collect()
+            };
+            let (lq, lt) = (layout(mq), layout(mt));
+            let weights: Vec<f64> = (0..mq).map(|_| rng.random_range(0.0..2.0)).collect();
+            let params = MatchParams::default();
+            let q = ShapeView { descriptors: &dq, layout: &lq };
+            let t = ShapeView { descriptors: &dt, layout: &lt };
+            let m = match_weighted(q, t, &params, &weights);
+            let d = distances(&dq, &dt);
+            let bound = score_bound(mq, mt, &d, &params, &weights);
+            proptest::prop_assert!(m.score <= bound + 1e-12, "score {} bound {}", m.score, bound);
+        }
     }
 
     #[test]

@@ -1,12 +1,14 @@
 //! Ranking the shapes of an index against a described query, in two stages: candidate shapes
-//! from the index's KD-tree over part descriptors, each voted for by the query parts it has
-//! near neighbours for; then [`crate::match_weighted`] (the part-to-part assignment and the
-//! layout check) for the [`MATCHED_CANDIDATES`] best-voted.
+//! from the index's nearest-neighbour search over part descriptors (exact, or approximate on
+//! large indexes: `keycomp_index::SearchMode`), each voted for by the query parts it has near
+//! neighbours for; then [`crate::match_weighted`] (the part-to-part assignment and the layout
+//! check) for the [`MATCHED_CANDIDATES`] best-voted, pruned by a bound on their score when
+//! only the top `k` are asked for.
 //!
-//! Cost: m KD-tree searches in parallel (m query parts, [`CANDIDATES_PER_COMPONENT`] neighbours
-//! each), the votes in O(m · [`CANDIDATES_PER_COMPONENT`]), then at most
-//! [`MATCHED_CANDIDATES`] assignments of O(m³) each (in parallel), independent of the index
-//! size beyond the searches.
+//! Cost: m searches in parallel (m query parts, [`CANDIDATES_PER_COMPONENT`] neighbours each),
+//! the votes in O(m · [`CANDIDATES_PER_COMPONENT`]), the bounds in O(m²) per candidate, then
+//! at most [`MATCHED_CANDIDATES`] assignments of O(m³) each (in parallel), independent of the
+//! index size beyond the searches.
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -16,7 +18,7 @@ use std::path::PathBuf;
 use keycomp_describe::{DIM, Descriptor};
 use keycomp_index::{IndexError, IndexReader, ShapeId};
 
-use crate::{MatchParams, ShapeMatch, ShapeView, match_weighted};
+use crate::{MatchParams, ShapeMatch, ShapeView};
 
 /// Nearest components fetched from the KD-tree per query component.
 pub const CANDIDATES_PER_COMPONENT: usize = 64;
@@ -86,33 +88,7 @@ pub fn rank(
     let mut by_vote: Vec<(ShapeId, f64)> = votes.into_iter().collect();
     by_vote.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
     let rest = by_vote.split_off(by_vote.len().min(MATCHED_CANDIDATES));
-    let mut ranked: Vec<Ranked> = by_vote
-        .into_par_iter()
-        .filter_map(|(id, _)| {
-            let rec = reader.get(id)?;
-            let descs: Vec<Descriptor> = rec.components.iter().map(|c| c.descriptor).collect();
-            let m = match_weighted(
-                query,
-                ShapeView {
-                    descriptors: &descs,
-                    layout: &rec.layout,
-                },
-                params,
-                &weights,
-            );
-            Some(Ranked {
-                id,
-                path: rec.path.clone(),
-                result: m,
-            })
-        })
-        .collect();
-    ranked.sort_by(|a, b| {
-        b.result
-            .score
-            .total_cmp(&a.result.score)
-            .then(a.id.cmp(&b.id))
-    });
+    let mut ranked = match_candidates(reader, query, &by_vote, k, params, &weights);
     ranked.extend(
         rest.into_iter()
             .take(k.saturating_sub(ranked.len()))
@@ -131,6 +107,90 @@ pub fn rank(
     );
     ranked.truncate(k);
     Ok(ranked)
+}
+
+/// Matches the candidates `by_vote` (best-voted first) part to part and returns the `k` best
+/// by score (ties by shape id), in that order; a candidate's score is the same as if every
+/// candidate were matched.
+///
+/// Branch and bound: the matrix of descriptor distances gives each candidate an upper bound of
+/// its score ([`crate::score_bound`]: every query part at its best similarity); candidates are
+/// matched in order of decreasing bound, a batch of a few at a time in parallel, until the
+/// next bound is below the `k`-th best score found. Kuhn–Munkres and the layout check, the
+/// costly steps, then run only for candidates that can still enter the top `k`.
+fn match_candidates(
+    reader: &IndexReader<DIM>,
+    query: ShapeView,
+    by_vote: &[(ShapeId, f64)],
+    k: usize,
+    params: &MatchParams,
+    weights: &[f64],
+) -> Vec<Ranked> {
+    struct Candidate<'a> {
+        id: ShapeId,
+        rec: &'a keycomp_index::ShapeRecord<DIM>,
+        descriptors: Vec<Descriptor>,
+        d: Vec<f32>,
+        bound: f64,
+    }
+    let mq = query.descriptors.len();
+    let mut candidates: Vec<Candidate> = by_vote
+        .par_iter()
+        .filter_map(|&(id, _)| {
+            let rec = reader.get(id)?;
+            let descriptors: Vec<Descriptor> =
+                rec.components.iter().map(|c| c.descriptor).collect();
+            let d = crate::distances(query.descriptors, &descriptors);
+            let bound = crate::score_bound(mq, descriptors.len(), &d, params, weights);
+            Some(Candidate {
+                id,
+                rec,
+                descriptors,
+                d,
+                bound,
+            })
+        })
+        .collect();
+    candidates.sort_by(|a, b| b.bound.total_cmp(&a.bound).then(a.id.cmp(&b.id)));
+    let batch = 2 * rayon::current_num_threads().max(1);
+    let mut ranked: Vec<Ranked> = Vec::new();
+    let mut next = 0;
+    while next < candidates.len() {
+        if ranked.len() >= k {
+            // the k-th best score so far; a bound below it (by more than rounding) cannot enter
+            let kth = ranked[k - 1].result.score;
+            if candidates[next].bound + 1e-9 < kth {
+                break;
+            }
+        }
+        let end = (next + batch).min(candidates.len());
+        let done: Vec<Ranked> = candidates[next..end]
+            .par_iter()
+            .map(|c| Ranked {
+                id: c.id,
+                path: c.rec.path.clone(),
+                result: crate::match_distances(
+                    query,
+                    ShapeView {
+                        descriptors: &c.descriptors,
+                        layout: &c.rec.layout,
+                    },
+                    &c.d,
+                    params,
+                    weights,
+                ),
+            })
+            .collect();
+        ranked.extend(done);
+        ranked.sort_by(|a, b| {
+            b.result
+                .score
+                .total_cmp(&a.result.score)
+                .then(a.id.cmp(&b.id))
+        });
+        next = end;
+    }
+    ranked
 }
 
 /// Candidate shapes and their votes: for each query part, the similarity

@@ -1,0 +1,94 @@
+//! `rank` with a small `k` (candidates pruned by their score bound) returns exactly the first
+//! `k` of the full ranking (every candidate matched): same shapes, same order, same scores.
+
+use keycomp_describe::{DIM, Descriptor};
+use keycomp_index::{ComponentRecord, ContentHash, IndexReader, IndexWriter, ShapeRecord};
+use keycomp_retrieval::{MatchParams, rank};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+fn jitter(rng: &mut ChaCha8Rng, d: &Descriptor, amount: f32) -> Descriptor {
+    std::array::from_fn(|i| d[i] + rng.random_range(-amount..amount))
+}
+
+/// Shapes of a few classes: each class has prototype parts in [0, 0.15)^D, so that parts of
+/// one class are within matching distance of each other and of other classes' sometimes.
+fn records(rng: &mut ChaCha8Rng, classes: &[Vec<Descriptor>], n: usize) -> Vec<ShapeRecord<DIM>> {
+    (0..n)
+        .map(|i| {
+            let class = &classes[i % classes.len()];
+            let m = rng.random_range(3..=class.len());
+            let components: Vec<ComponentRecord<DIM>> = class[..m]
+                .iter()
+                .map(|p| ComponentRecord {
+                    descriptor: jitter(rng, p, 0.04),
+                    centre_vertex: 0,
+                    area_fraction: 0.1,
+                    keypoint_count: 1,
+                })
+                .collect();
+            let mut layout = vec![0f32; m * m];
+            for a in 0..m {
+                for b in a + 1..m {
+                    let d = (b - a) as f32 * rng.random_range(0.9..1.1);
+                    layout[a * m + b] = d;
+                    layout[b * m + a] = d;
+                }
+            }
+            let name = format!("shape-{i:04}.off");
+            ShapeRecord {
+                path: name.clone().into(),
+                canonical_path: format!("/{name}").into(),
+                content_hash: ContentHash::of_bytes(name.as_bytes()),
+                vertex_count: 100,
+                face_count: 196,
+                surface_area: 1.0,
+                components,
+                layout,
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn pruned_top_k_equals_the_full_ranking() {
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    let classes: Vec<Vec<Descriptor>> = (0..5)
+        .map(|_| {
+            (0..10)
+                .map(|_| std::array::from_fn(|_| rng.random_range(0.0..0.15)))
+                .collect()
+        })
+        .collect();
+    let dir = tempfile::tempdir().expect("tempdir");
+    {
+        let mut w = IndexWriter::<DIM>::create_or_open(dir.path()).expect("index");
+        w.add_batch(records(&mut rng, &classes, 150)).expect("add");
+    }
+    let reader = IndexReader::<DIM>::open(dir.path()).expect("open");
+    let params = MatchParams::default();
+    let mut pruned_any = false;
+    for q in 0..12 {
+        let src = reader.shapes()[q * 7].record.clone();
+        let descs: Vec<Descriptor> = src
+            .components
+            .iter()
+            .map(|c| jitter(&mut rng, &c.descriptor, 0.03))
+            .collect();
+        let full = rank(&reader, &descs, &src.layout, 10_000, &params).expect("rank");
+        assert!(full.len() > 10, "more candidates than the largest k");
+        for k in [1, 3, 10] {
+            let top = rank(&reader, &descs, &src.layout, k, &params).expect("rank");
+            assert_eq!(top.len(), k);
+            for (a, b) in top.iter().zip(&full) {
+                assert_eq!(a.id, b.id, "query {q}, k {k}");
+                assert_eq!(a.result, b.result, "query {q}, k {k}");
+            }
+        }
+        pruned_any |= full[10].result.score > 0.0;
+    }
+    assert!(
+        pruned_any,
+        "the test must have candidates beyond the top 10 with a score"
+    );
+}
