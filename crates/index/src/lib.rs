@@ -39,6 +39,7 @@
 
 mod error;
 mod file;
+mod ivf;
 mod manifest;
 mod reader;
 mod record;
@@ -48,7 +49,11 @@ mod verify;
 mod writer;
 
 pub use error::{CorruptKind, IndexError, Result};
-pub use reader::{ComponentMatch, IndexReader, IndexStats, IndexedShape, squared_distance};
+pub use ivf::distance_sq as squared_distance_fast;
+pub use reader::{
+    ComponentMatch, IVF_MIN_COMPONENTS, IndexReader, IndexStats, IndexedShape, SearchMode,
+    squared_distance,
+};
 pub use record::{ComponentRecord, ContentHash, ShapeId, ShapeRecord, canonical_path};
 pub use verify::{VerifyReport, verify};
 pub use writer::{AddOutcome, AddSummary, IndexWriter, MergeSummary};

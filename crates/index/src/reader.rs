@@ -9,14 +9,21 @@
 //! generation moved on, starts over (a few times), so only a segment missing from the
 //! *current* manifest is reported as [`IndexError::MissingSegment`].
 //!
-//! Search: [`kiddo::immutable::float::kdtree::ImmutableKdTree`] (bucket 128, `u32` items) over
-//! all live descriptors, built on the first search (or [`IndexReader::prepare_search`]), so
-//! that listing or looking up shapes does not pay for it. Storing the tree on disk was
-//! rejected: it spans all segments, so every add would rewrite it whole. Bucket 128 measured
-//! 3× faster than kiddo's default 32 for 32-value descriptors. Distances are squared Euclidean, recomputed
-//! from the stored descriptors. Building costs O(n log n) for n components; a query is
-//! O(log n) on well-clustered data and degrades towards a linear scan for uniformly random
-//! high-dimensional data.
+//! Search, built on the first search (or [`IndexReader::prepare_search`]) so that listing or
+//! looking up shapes does not pay for it:
+//! - below [`IVF_MIN_COMPONENTS`] components, exact:
+//!   [`kiddo::immutable::float::kdtree::ImmutableKdTree`] (bucket 128, `u32` items) over all
+//!   live descriptors. Bucket 128 measured 3× faster than kiddo's default 32 for 32-value
+//!   descriptors. Building costs O(n log n); a query is O(log n) on well-clustered data and
+//!   degrades towards a linear scan for high-dimensional data — which 64-value descriptors
+//!   are: at 84,000 components the tree took 280 ms for a query's 84 searches;
+//! - from there, approximate: an inverted file with a two-level k-means quantiser (`ivf`),
+//!   about 12 cells of 512 descriptors scanned per search (9 ms for the same searches, the
+//!   top 10 of the ranking equal to the exact one's for 99 of 100 queries; BENCHMARKS.md,
+//!   "Candidate search"). [`SearchMode`] chooses otherwise.
+//!
+//! Storing either structure on disk was rejected: it spans all segments, so every add would
+//! rewrite it whole. Distances are squared Euclidean, recomputed from the stored descriptors.
 
 use std::num::NonZero;
 use std::path::{Path, PathBuf};
@@ -30,6 +37,7 @@ use kiddo::immutable::float::kdtree::ImmutableKdTree;
 
 use crate::FORMAT_VERSION;
 use crate::error::{IndexError, Result};
+use crate::ivf::Ivf;
 use crate::manifest::{Manifest, segment_file_name};
 use crate::record::{ShapeId, ShapeRecord, canonical_path};
 use crate::segment;
@@ -93,14 +101,33 @@ pub struct IndexReader<const D: usize> {
     /// For tree item `i`: (position in `shapes`, component index).
     owners: Vec<(u32, u32)>,
     search: OnceLock<Search<D>>,
+    mode: SearchMode,
     load_time: Duration,
+}
+
+/// Components from which [`SearchMode::Auto`] searches an inverted file instead of the exact
+/// KD-tree (about 390 shapes of 84 parts).
+pub const IVF_MIN_COMPONENTS: usize = 32_768;
+
+/// How [`IndexReader::nearest_components`] searches.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SearchMode {
+    /// Exact below [`IVF_MIN_COMPONENTS`] components, approximate from there (the default).
+    #[default]
+    Auto,
+    /// Always exact (the KD-tree).
+    Exact,
+    /// Always the inverted file (approximate; see `ivf`).
+    Approximate,
 }
 
 /// The search structure, built on first use.
 struct Search<const D: usize> {
-    /// `None` when there is no component, or when building the tree failed (then searches
-    /// scan linearly).
+    /// `None` when there is no component, when the inverted file is used, or when building the
+    /// tree failed (then searches scan linearly).
     tree: Option<Tree<D>>,
+    /// The inverted file, when the mode asks for it.
+    ivf: Option<Ivf>,
     build_time: Duration,
 }
 
@@ -195,19 +222,60 @@ impl<const D: usize> IndexReader<D> {
             shapes,
             owners,
             search: OnceLock::new(),
+            mode: SearchMode::Auto,
             load_time: start.elapsed(),
         })
     }
 
-    /// Builds the KD-tree now if it is not built yet (searches build it on first use).
-    /// Returns the time the build took (once built, always the same value).
+    /// This snapshot searching as `mode` says (the search structure is built again on the next
+    /// search).
+    pub fn with_search_mode(mut self, mode: SearchMode) -> Self {
+        self.mode = mode;
+        self.search = OnceLock::new();
+        self
+    }
+
+    /// Whether searches are approximate (the inverted file) for this snapshot and mode.
+    pub fn search_is_approximate(&self) -> bool {
+        match self.mode {
+            SearchMode::Auto => self.owners.len() >= IVF_MIN_COMPONENTS,
+            SearchMode::Exact => false,
+            SearchMode::Approximate => !self.owners.is_empty(),
+        }
+    }
+
+    /// Builds the search structure now if it is not built yet (searches build it on first
+    /// use). Returns the time the build took (once built, always the same value).
     pub fn prepare_search(&self) -> Duration {
         self.search().build_time
+    }
+
+    /// Bytes held by the search structure (building it if needed): the inverted file's, or
+    /// an estimate of the KD-tree's (its copy of the descriptors and item ids).
+    pub fn search_bytes(&self) -> usize {
+        let s = self.search();
+        match (&s.ivf, &s.tree) {
+            (Some(ivf), _) => ivf.bytes(),
+            (None, Some(_)) => self.owners.len() * (4 * D + 4),
+            (None, None) => 0,
+        }
     }
 
     fn search(&self) -> &Search<D> {
         self.search.get_or_init(|| {
             let start = Instant::now();
+            if self.search_is_approximate() {
+                let flat: Vec<f32> = self
+                    .shapes
+                    .iter()
+                    .flat_map(|s| s.record.components.iter().flat_map(|c| c.descriptor))
+                    .collect();
+                return Search {
+                    tree: None,
+                    ivf: Some(Ivf::build(&flat, D)),
+                    build_time: start.elapsed(),
+                };
+            }
             let points: Vec<[f32; D]> = self
                 .shapes
                 .iter()
@@ -223,6 +291,7 @@ impl<const D: usize> IndexReader<D> {
             };
             Search {
                 tree,
+                ivf: None,
                 build_time: start.elapsed(),
             }
         })
@@ -316,13 +385,19 @@ impl<const D: usize> IndexReader<D> {
         let Some(qty) = NonZero::new(k) else {
             return Ok(Vec::new());
         };
-        let items: Vec<usize> = match &self.search().tree {
-            Some(tree) => tree
+        let search = self.search();
+        let items: Vec<usize> = match (&search.ivf, &search.tree) {
+            (Some(ivf), _) => ivf
+                .search(query, qty.get())
+                .into_iter()
+                .map(|(i, _)| i as usize)
+                .collect(),
+            (None, Some(tree)) => tree
                 .nearest_n::<SquaredEuclidean>(query, qty)
                 .into_iter()
                 .map(|n| n.item as usize)
                 .collect(),
-            None => return Ok(self.nearest_linear(query, k)),
+            (None, None) => return Ok(self.nearest_linear(query, k)),
         };
         let mut out: Vec<ComponentMatch> = items
             .into_iter()
