@@ -18,6 +18,24 @@
 //! on-disk index), `keycomp_retrieval` (matching and ranking), `keycomp_fragment` (fragments
 //! for partial queries), `keycomp_render` (pictures); `keycomp_bench` (the benchmarks) is a
 //! client of them that this library does not use.
+//!
+//! ```no_run
+//! use std::path::Path;
+//! use keycomp::collection::{self, AddOptions};
+//! use keycomp::matching::{MatchOptions, match_files};
+//! use keycomp::search::Searcher;
+//!
+//! let index = Path::new("my-index");
+//! let added = collection::add(index, &["shapes/".into()], &AddOptions::default(), &())?;
+//! println!("{} shapes indexed", added.shapes);
+//! let searcher = Searcher::open(index, None)?; // the index's own parameters
+//! for hit in searcher.query(Path::new("scan.ply"), 5)?.results {
+//!     println!("{} {:.3}", hit.path, hit.score);
+//! }
+//! let (_, _, m) = match_files(Path::new("a.off"), Path::new("b.off"), &MatchOptions::default())?;
+//! println!("{}", serde_json::to_string(&m)?);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 pub mod analysis;
 pub mod collection;
