@@ -464,6 +464,21 @@ impl Index {
         })
     }
 
+    /// Adds mesh files and every mesh below folders as `keycomp index add` does: a file that
+    /// cannot be analysed is listed and the others stored, in commits of 32 shapes. Returns
+    /// `{"added", "replaced", "unchanged", "failed": [{"path", "message"}], "shapes"}`.
+    fn add_files<'py>(&self, py: Python<'py>, paths: Vec<PathBuf>) -> PyResult<Bound<'py, PyAny>> {
+        let summary = py.detach(|| {
+            let options = AddOptions {
+                keep_going: true,
+                ..AddOptions::default()
+            };
+            collection::add(&self.path, &paths, &options, &()).map_err(analysis_err)
+        })?;
+        let text = serde_json::to_string(&summary).map_err(|e| py_err(e, false))?;
+        py.import("json")?.call_method1("loads", (text,))
+    }
+
     /// Merges other indexes (built apart, e.g. shards) into this one in one commit, as
     /// `keycomp index merge`; returns the number of shapes added.
     fn merge(&self, py: Python<'_>, sources: Vec<PathBuf>) -> PyResult<usize> {
@@ -532,12 +547,23 @@ impl Index {
     }
 }
 
+/// The mesh files among `paths` and below its folders, as `keycomp index add` lists them:
+/// folders searched recursively for supported extensions, each folder's files sorted.
+#[pyfunction]
+fn mesh_files(py: Python<'_>, paths: Vec<PathBuf>) -> PyResult<Vec<String>> {
+    let files = py
+        .detach(|| keycomp_core::mesh_files(&paths))
+        .map_err(analysis_err)?;
+    Ok(files.iter().map(|p| p.display().to_string()).collect())
+}
+
 /// keycomp: key-components of 3D meshes for matching and partial retrieval.
 #[pymodule]
-fn keycomp(m: &Bound<'_, PyModule>) -> PyResult<()> {
+fn _keycomp(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(read_mesh, m)?)?;
     m.add_function(wrap_pyfunction!(detect, m)?)?;
     m.add_function(wrap_pyfunction!(match_meshes, m)?)?;
+    m.add_function(wrap_pyfunction!(mesh_files, m)?)?;
     m.add_class::<Index>()?;
     m.add_class::<DetectionResult>()?;
     m.add_class::<Component>()?;

@@ -1,6 +1,6 @@
 """keycomp: key-components of 3D meshes (Sipiran & Bustos 2013) for matching and partial retrieval.
 
-Type stubs of the compiled module. Meshes are given as a path (str or os.PathLike), a
+Type stubs of the compiled module (`keycomp._keycomp`, re-exported by `keycomp`). Meshes are given as a path (str or os.PathLike), a
 (vertices, faces) pair of arrays, or an object with .vertices and .faces (a trimesh.Trimesh).
 Errors raise OSError (a file cannot be read or written) or ValueError (bad data or arguments),
 with keycomp's messages.
@@ -18,6 +18,9 @@ MeshLike = Union[str, os.PathLike, Tuple[npt.ArrayLike, npt.ArrayLike], Any]
 
 def read_mesh(path: Union[str, os.PathLike]) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]:
     """(vertices (n, 3) float64, faces (m, 3) int64) of a mesh file, ids as `keycomp detect` uses."""
+
+def mesh_files(paths: Sequence[Union[str, os.PathLike]]) -> list[str]:
+    """The mesh files among paths and below its folders, as `keycomp index add` lists them."""
 
 class Component:
     id: int
@@ -83,6 +86,9 @@ class Index:
     ) -> int:
         """Adds mesh files (folders searched recursively) or (name, vertices, faces) meshes;
         returns shapes added or replaced."""
+    def add_files(self, paths: Sequence[Union[str, os.PathLike]]) -> dict[str, Any]:
+        """As `keycomp index add`: failures listed, the others stored (commits of 32 shapes).
+        Returns {"added", "replaced", "unchanged", "failed": [{"path", "message"}], "shapes"}."""
     def merge(self, sources: Sequence[Union[str, os.PathLike]]) -> int:
         """Merges indexes built apart into this one (one commit); returns shapes added."""
     def remove(self, paths: Sequence[Union[str, os.PathLike]]) -> int: ...
