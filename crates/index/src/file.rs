@@ -38,6 +38,8 @@ pub const MAGIC: [u8; 8] = *b"KCIDXEND";
 pub const KIND_MANIFEST: u32 = 1;
 /// Footer kind code of a segment.
 pub const KIND_SEGMENT: u32 = 2;
+/// Footer kind code of the search cache (`ivf`), derived data a reader may rewrite.
+pub const KIND_SEARCH_CACHE: u32 = 3;
 /// Infix of temporary files (`NAME.tmp-PID-N`); any file containing it is garbage unless a
 /// write is in progress under the writer lock.
 pub const TEMP_INFIX: &str = ".tmp-";
@@ -47,6 +49,7 @@ pub fn kind_name(kind: u32) -> &'static str {
     match kind {
         KIND_MANIFEST => "manifest",
         KIND_SEGMENT => "segment",
+        KIND_SEARCH_CACHE => "search cache",
         _ => "unknown",
     }
 }

@@ -49,6 +49,32 @@ pub fn distance_sq(a: &[f32], b: &[f32]) -> f32 {
     acc.iter().sum::<f32>() + tail
 }
 
+/// The descriptors an inverted file is built on: point `i` for `i < len()`, `dim()` values
+/// each (the reader's live descriptors in place, or a flat array).
+pub(crate) trait Points: Sync {
+    /// How many points.
+    fn len(&self) -> usize;
+    /// Point `i` (`i < len()`).
+    fn point(&self, i: u32) -> &[f32];
+}
+
+/// Points stored one after the other in one array, `d` values each.
+pub(crate) struct Flat<'a> {
+    /// The values.
+    pub data: &'a [f32],
+    /// Values per point.
+    pub d: usize,
+}
+
+impl Points for Flat<'_> {
+    fn len(&self) -> usize {
+        self.data.len() / self.d.max(1)
+    }
+    fn point(&self, i: u32) -> &[f32] {
+        &self.data[i as usize * self.d..(i as usize + 1) * self.d]
+    }
+}
+
 /// Index of the nearest of `centroids` (flat, `d` values each) to `p`; ties to the lower index.
 fn nearest(centroids: &[f32], d: usize, p: &[f32]) -> usize {
     let mut best = (f32::INFINITY, 0);
@@ -61,14 +87,14 @@ fn nearest(centroids: &[f32], d: usize, p: &[f32]) -> usize {
     best.1
 }
 
-/// k-means (Lloyd) of the points `points[i]` for `i` in `members`, `k` centroids, flat.
+/// k-means (Lloyd) of the points `points.point(i)` for `i` in `members`, `k` centroids, flat.
 /// Centroids start at evenly spaced members of an evenly spaced sample; an emptied cluster keeps
 /// its centroid.
-fn kmeans(data: &[f32], d: usize, members: &[u32], k: usize) -> Vec<f32> {
+fn kmeans(points: &impl Points, d: usize, members: &[u32], k: usize) -> Vec<f32> {
     let k = k.clamp(1, members.len().max(1));
     let step = (members.len() / (k * SAMPLE_PER_CENTROID)).max(1);
     let sample: Vec<u32> = members.iter().step_by(step).copied().collect();
-    let point = |i: u32| &data[i as usize * d..(i as usize + 1) * d];
+    let point = |i: u32| points.point(i);
     let mut centroids: Vec<f32> = (0..k)
         .flat_map(|j| point(sample[j * sample.len() / k]).to_vec())
         .collect();
@@ -102,7 +128,18 @@ fn kmeans(data: &[f32], d: usize, members: &[u32], k: usize) -> Vec<f32> {
     centroids
 }
 
+/// What a cache file holds.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct Stored {
+    key: u64,
+    d: u32,
+    coarse: Vec<f32>,
+    fine: Vec<Vec<f32>>,
+    cell: Vec<u32>,
+}
+
 /// The inverted file (see the module documentation).
+#[derive(Debug, PartialEq)]
 pub(crate) struct Ivf {
     d: usize,
     /// Coarse centroids, flat.
@@ -118,13 +155,13 @@ pub(crate) struct Ivf {
 }
 
 impl Ivf {
-    /// Builds the inverted file of `points` (`d` values each, flat; item `i` is point `i`).
-    pub(crate) fn build(points: &[f32], d: usize) -> Ivf {
-        let n = points.len() / d.max(1);
+    /// Builds the inverted file of `points` (`d` values each; item `i` is point `i`).
+    pub(crate) fn build(points: &impl Points, d: usize) -> Ivf {
+        let n = points.len();
         let c = ((n as f64 / CELL_SIZE as f64).sqrt().ceil() as usize).max(1);
         let all: Vec<u32> = (0..n as u32).collect();
         let coarse = kmeans(points, d, &all, c);
-        let point = |i: u32| &points[i as usize * d..(i as usize + 1) * d];
+        let point = |i: u32| points.point(i);
         let top: Vec<usize> = all
             .par_iter()
             .map(|&i| nearest(&coarse, d, point(i)))
@@ -133,46 +170,154 @@ impl Ivf {
         for (i, &t) in top.iter().enumerate() {
             members[t].push(i as u32);
         }
-        // each coarse cell: its fine centroids and its members grouped by fine cell
-        let cells: Vec<(Vec<f32>, Vec<Vec<u32>>)> = members
+        // each coarse cell: its fine centroids and the fine cell of each member
+        let cells: Vec<(Vec<f32>, Vec<u32>)> = members
             .par_iter()
             .map(|m| {
                 if m.is_empty() {
                     return (Vec::new(), Vec::new());
                 }
                 let fine = kmeans(points, d, m, c);
-                let mut groups: Vec<Vec<u32>> = vec![Vec::new(); fine.len() / d];
-                for &i in m {
-                    groups[nearest(&fine, d, point(i))].push(i);
-                }
-                (fine, groups)
+                let of: Vec<u32> = m
+                    .iter()
+                    .map(|&i| nearest(&fine, d, point(i)) as u32)
+                    .collect();
+                (fine, of)
             })
             .collect();
-        let mut items = Vec::with_capacity(n);
+        let mut cell = vec![0u32; n];
+        let mut base = 0u32;
         let mut fine = Vec::with_capacity(cells.len());
-        let mut ranges = Vec::with_capacity(cells.len());
-        for (centroids, groups) in cells {
-            let mut r = Vec::with_capacity(groups.len());
-            for g in groups {
-                let start = items.len() as u32;
-                items.extend(g);
-                r.push((start, items.len() as u32));
+        for ((centroids, of), m) in cells.into_iter().zip(&members) {
+            for (&i, &f) in m.iter().zip(&of) {
+                cell[i as usize] = base + f;
             }
+            base += (centroids.len() / d) as u32;
             fine.push(centroids);
+        }
+        Ivf::from_parts(points, d, coarse, fine, &cell)
+            .expect("cells computed from the centroids are in range")
+    }
+
+    /// The inverted file of `points` with these centroids, item `i` in global fine cell
+    /// `cell[i]` (fine cells numbered coarse cell by coarse cell). Each cell lists its items in
+    /// increasing order. `None` when the parts do not fit together (a damaged cache).
+    fn from_parts(
+        points: &impl Points,
+        d: usize,
+        coarse: Vec<f32>,
+        fine: Vec<Vec<f32>>,
+        cell: &[u32],
+    ) -> Option<Ivf> {
+        let n = points.len();
+        if d == 0
+            || cell.len() != n
+            || !coarse.len().is_multiple_of(d)
+            || coarse.len() / d != fine.len()
+            || fine.iter().any(|f| !f.len().is_multiple_of(d))
+        {
+            return None;
+        }
+        let cells: usize = fine.iter().map(|f| f.len() / d).sum();
+        let mut counts = vec![0u32; cells + 1];
+        for &c in cell {
+            *counts.get_mut(c as usize + 1)? += 1;
+        }
+        for i in 1..counts.len() {
+            counts[i] += counts[i - 1];
+        }
+        let mut next = counts.clone();
+        let mut items = vec![0u32; n];
+        for (i, &c) in cell.iter().enumerate() {
+            let slot = &mut next[c as usize];
+            items[*slot as usize] = i as u32;
+            *slot += 1;
+        }
+        let mut ranges = Vec::with_capacity(fine.len());
+        let mut g = 0;
+        for f in &fine {
+            let r: Vec<(u32, u32)> = (0..f.len() / d)
+                .map(|k| (counts[g + k], counts[g + k + 1]))
+                .collect();
+            g += r.len();
             ranges.push(r);
         }
         let mut data = Vec::with_capacity(n * d);
         for &i in &items {
-            data.extend_from_slice(point(i));
+            data.extend_from_slice(points.point(i));
         }
-        Ivf {
+        Some(Ivf {
             d,
             coarse,
             fine,
             ranges,
             items,
             data,
+        })
+    }
+
+    /// The inverted file as a cache file for the descriptors identified by `key` (the reader's
+    /// key of its snapshot): the centroids and each item's cell, sealed like the index's files.
+    pub(crate) fn to_cache(&self, key: u64) -> Vec<u8> {
+        let mut cell = vec![0u32; self.items.len()];
+        let mut g = 0u32;
+        for ranges in &self.ranges {
+            for &(start, end) in ranges {
+                for j in start..end {
+                    cell[self.items[j as usize] as usize] = g;
+                }
+                g += 1;
+            }
         }
+        let stored = Stored {
+            key,
+            d: self.d as u32,
+            coarse: self.coarse.clone(),
+            fine: self.fine.clone(),
+            cell,
+        };
+        let payload = bincode::serde::encode_to_vec(&stored, crate::manifest::bincode_config())
+            .unwrap_or_default();
+        crate::file::seal(
+            payload,
+            crate::file::KIND_SEARCH_CACHE,
+            crate::FORMAT_VERSION,
+        )
+        .0
+    }
+
+    /// The inverted file of `points` from a cache file's bytes (read from `path`), or `None`
+    /// when the file is damaged, of another format, or made for other descriptors than those
+    /// identified by `key`.
+    pub(crate) fn from_cache(
+        path: &std::path::Path,
+        bytes: Vec<u8>,
+        key: u64,
+        points: &impl Points,
+        d: usize,
+    ) -> Option<Ivf> {
+        let opened = crate::file::unseal(
+            path,
+            bytes,
+            crate::file::KIND_SEARCH_CACHE,
+            crate::FORMAT_VERSION,
+        )
+        .ok()?;
+        Ivf::from_payload(opened.payload(), key, points, d)
+    }
+
+    /// [`Ivf::from_cache`] on a cache file's payload (its footer and checksum already checked).
+    pub(crate) fn from_payload(
+        payload: &[u8],
+        key: u64,
+        points: &impl Points,
+        d: usize,
+    ) -> Option<Ivf> {
+        let (stored, _): (Stored, usize) = crate::manifest::decode_bounded(payload).ok()?;
+        if stored.key != key || stored.d as usize != d {
+            return None;
+        }
+        Ivf::from_parts(points, d, stored.coarse, stored.fine, &stored.cell)
     }
 
     /// About the `k` nearest items to `q` (see the module documentation), nearest first, with
@@ -265,11 +410,12 @@ mod tests {
                     .collect::<Vec<f32>>()
             })
             .collect();
-        let ivf = Ivf::build(&points, d);
+        let flat = Flat { data: &points, d };
+        let ivf = Ivf::build(&flat, d);
         let mut stored = ivf.items.clone();
         stored.sort_unstable();
         assert_eq!(stored, (0..n as u32).collect::<Vec<_>>());
-        let again = Ivf::build(&points, d);
+        let again = Ivf::build(&flat, d);
         assert_eq!(again.items, ivf.items);
         let (mut hits, mut total) = (0, 0);
         for qi in (0..n).step_by(97) {
@@ -282,5 +428,61 @@ mod tests {
             total += want.len();
         }
         assert!(hits as f64 >= 0.9 * total as f64, "recall {hits}/{total}");
+    }
+
+    /// A cache file gives back the same inverted file; another key, a flipped byte, a
+    /// truncated file or cells out of range give none (the reader then builds it).
+    #[test]
+    fn cache_round_trip_and_damage() {
+        let d = 8;
+        let mut rng = ChaCha8Rng::seed_from_u64(9);
+        let points: Vec<f32> = (0..5_000 * d).map(|_| rng.random_range(0.0..1.0)).collect();
+        let flat = Flat { data: &points, d };
+        let ivf = Ivf::build(&flat, d);
+        let key = 0x5eed_cafe;
+        let path = std::path::Path::new("SEARCH-CACHE");
+        let bytes = ivf.to_cache(key);
+        assert_eq!(
+            Ivf::from_cache(path, bytes.clone(), key, &flat, d).as_ref(),
+            Some(&ivf)
+        );
+        assert!(Ivf::from_cache(path, bytes.clone(), key ^ 1, &flat, d).is_none());
+        for at in [0, bytes.len() / 3, bytes.len() / 2, bytes.len() - 40] {
+            let mut bad = bytes.clone();
+            bad[at] ^= 0x5a;
+            assert!(
+                Ivf::from_cache(path, bad, key, &flat, d).is_none(),
+                "byte {at}"
+            );
+        }
+        assert!(Ivf::from_cache(path, bytes[..bytes.len() / 2].to_vec(), key, &flat, d).is_none());
+        // well sealed, but a cell beyond the centroids, or fewer cells than points
+        for cell in [vec![u32::MAX; 5_000], vec![0; 10]] {
+            let stored = Stored {
+                key,
+                d: d as u32,
+                coarse: ivf.coarse.clone(),
+                fine: ivf.fine.clone(),
+                cell,
+            };
+            let payload = bincode::serde::encode_to_vec(&stored, crate::manifest::bincode_config())
+                .expect("encode");
+            let sealed = crate::file::seal(
+                payload,
+                crate::file::KIND_SEARCH_CACHE,
+                crate::FORMAT_VERSION,
+            )
+            .0;
+            assert!(Ivf::from_cache(path, sealed, key, &flat, d).is_none());
+        }
+    }
+
+    #[test]
+    fn the_fuzzing_seed_is_accepted() {
+        let seed = crate::fuzzing::search_cache_seed();
+        assert!(crate::fuzzing::decode_search_cache_payload(&seed));
+        assert!(!crate::fuzzing::decode_search_cache_payload(
+            &seed[..seed.len() - 1]
+        ));
     }
 }

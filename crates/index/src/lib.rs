@@ -51,8 +51,8 @@ mod writer;
 pub use error::{CorruptKind, IndexError, Result};
 pub use ivf::distance_sq as squared_distance_fast;
 pub use reader::{
-    ComponentMatch, IVF_MIN_COMPONENTS, IndexReader, IndexStats, IndexedShape, SearchMode,
-    squared_distance,
+    ComponentMatch, IVF_MIN_COMPONENTS, IndexReader, IndexStats, IndexedShape, SEARCH_CACHE_NAME,
+    SearchMode, squared_distance,
 };
 pub use record::{ComponentRecord, ContentHash, ShapeId, ShapeRecord, canonical_path};
 pub use verify::{VerifyReport, verify};
@@ -95,6 +95,39 @@ pub mod fuzzing {
     /// of length `D`, checking it as a reader does against a manifest made up from its head.
     pub fn decode_segment_payload<const D: usize>(payload: &[u8]) -> Result<()> {
         crate::segment::decode_unsealed::<D>(payload).map(|_| ())
+    }
+
+    /// The snapshot key of [`decode_search_cache_payload`]'s made-up snapshot.
+    const CACHE_KEY: u64 = 0x5eed_cafe;
+
+    /// The 64 descriptors of length 8 (a fixed pseudo-random set) that
+    /// [`decode_search_cache_payload`] checks a search cache against.
+    fn cache_points() -> Vec<f32> {
+        (0..64 * 8u32)
+            .map(|i| (i.wrapping_mul(2_654_435_761) >> 8) as f32 / 16_777_216.0)
+            .collect()
+    }
+
+    /// Decodes a search-cache payload (the `SEARCH-CACHE` file without its footer) as a reader
+    /// does, for [`cache_points`]'s descriptors; whether it was accepted.
+    pub fn decode_search_cache_payload(payload: &[u8]) -> bool {
+        let points = cache_points();
+        let flat = crate::ivf::Flat {
+            data: &points,
+            d: 8,
+        };
+        crate::ivf::Ivf::from_payload(payload, CACHE_KEY, &flat, 8).is_some()
+    }
+
+    /// A valid search-cache payload for [`decode_search_cache_payload`] (a fuzzing seed).
+    pub fn search_cache_seed() -> Vec<u8> {
+        let points = cache_points();
+        let flat = crate::ivf::Flat {
+            data: &points,
+            d: 8,
+        };
+        let sealed = crate::ivf::Ivf::build(&flat, 8).to_cache(CACHE_KEY);
+        sealed[..sealed.len() - crate::file::FOOTER_LEN].to_vec()
     }
 
     /// Decodes a manifest payload (a MANIFEST without its footer) of format `version`.

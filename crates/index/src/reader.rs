@@ -109,6 +109,26 @@ pub struct IndexReader<const D: usize> {
 /// KD-tree (about 390 shapes of 84 parts).
 pub const IVF_MIN_COMPONENTS: usize = 32_768;
 
+/// The live descriptors of a snapshot, in item order (as `owners` lists them), read in place.
+struct Live<'a, const D: usize> {
+    shapes: &'a [IndexedShape<D>],
+    owners: &'a [(u32, u32)],
+}
+
+impl<const D: usize> crate::ivf::Points for Live<'_, D> {
+    fn len(&self) -> usize {
+        self.owners.len()
+    }
+    fn point(&self, i: u32) -> &[f32] {
+        let (pos, ci) = self.owners[i as usize];
+        &self.shapes[pos as usize].record.components[ci as usize].descriptor
+    }
+}
+
+/// The file in an index folder that caches the inverted file of its current descriptors
+/// (derived data: any reader may rewrite it; a damaged or stale one is rebuilt).
+pub const SEARCH_CACHE_NAME: &str = "SEARCH-CACHE";
+
 /// How [`IndexReader::nearest_components`] searches.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum SearchMode {
@@ -128,6 +148,8 @@ struct Search<const D: usize> {
     tree: Option<Tree<D>>,
     /// The inverted file, when the mode asks for it.
     ivf: Option<Ivf>,
+    /// Whether the inverted file was read from the search cache rather than built.
+    cached: bool,
     build_time: Duration,
 }
 
@@ -250,6 +272,50 @@ impl<const D: usize> IndexReader<D> {
         self.search().build_time
     }
 
+    /// Whether the search structure (building it if needed) was read from the index's search
+    /// cache ([`SEARCH_CACHE_NAME`]) instead of being built.
+    pub fn search_was_cached(&self) -> bool {
+        self.search().cached
+    }
+
+    /// What identifies the live descriptors of this snapshot: a hash of the descriptor length,
+    /// every listed segment's number, length and checksum (segments are immutable, and their
+    /// checksums were verified on open) and the tombstones.
+    fn snapshot_key(&self) -> u64 {
+        let mut h = xxhash_rust::xxh3::Xxh3Default::new();
+        h.update(&(D as u64).to_le_bytes());
+        for s in &self.manifest.segments {
+            for v in [s.number, s.len, s.checksum] {
+                h.update(&v.to_le_bytes());
+            }
+        }
+        h.update(&u64::MAX.to_le_bytes());
+        for t in &self.manifest.tombstones {
+            h.update(&t.0.to_le_bytes());
+        }
+        h.digest()
+    }
+
+    /// The inverted file of the descriptors `flat`: read from the search cache when it was
+    /// made for this snapshot, else built and written there for the next reader (best
+    /// effort: a read-only index folder, a damaged or stale cache only cost a build).
+    fn inverted_file(&self) -> (Ivf, bool) {
+        let live = Live {
+            shapes: &self.shapes,
+            owners: &self.owners,
+        };
+        let key = self.snapshot_key();
+        let path = self.dir.join(SEARCH_CACHE_NAME);
+        if let Ok(bytes) = crate::file::read_all(&path)
+            && let Some(ivf) = Ivf::from_cache(&path, bytes, key, &live, D)
+        {
+            return (ivf, true);
+        }
+        let ivf = Ivf::build(&live, D);
+        let _ = crate::file::write_atomic(&self.dir, SEARCH_CACHE_NAME, &ivf.to_cache(key));
+        (ivf, false)
+    }
+
     /// Bytes held by the search structure (building it if needed): the inverted file's, or
     /// an estimate of the KD-tree's (its copy of the descriptors and item ids).
     pub fn search_bytes(&self) -> usize {
@@ -265,14 +331,11 @@ impl<const D: usize> IndexReader<D> {
         self.search.get_or_init(|| {
             let start = Instant::now();
             if self.search_is_approximate() {
-                let flat: Vec<f32> = self
-                    .shapes
-                    .iter()
-                    .flat_map(|s| s.record.components.iter().flat_map(|c| c.descriptor))
-                    .collect();
+                let (ivf, cached) = self.inverted_file();
                 return Search {
                     tree: None,
-                    ivf: Some(Ivf::build(&flat, D)),
+                    ivf: Some(ivf),
+                    cached,
                     build_time: start.elapsed(),
                 };
             }
@@ -292,6 +355,7 @@ impl<const D: usize> IndexReader<D> {
             Search {
                 tree,
                 ivf: None,
+                cached: false,
                 build_time: start.elapsed(),
             }
         })

@@ -143,6 +143,11 @@ end_header\n"
     }
     let _ = fs::remove_dir_all(&tmp);
     put(
+        "index_search_cache",
+        "cache",
+        &keycomp_index::fuzzing::search_cache_seed(),
+    );
+    put(
         "map_file",
         "small.map",
         b"# keycomp-map v1 transformed=4 null=3\n2\n-1\n0\n1\n",
