@@ -95,7 +95,11 @@ end_header\n"
     };
     let glb_path = std::env::temp_dir().join(format!("keycomp-seed-{}.glb", std::process::id()));
     keycomp_mesh::write_glb(&tetra, &glb_path).expect("write a GLB");
-    put("mesh_gltf", "tetra.glb", &fs::read(&glb_path).expect("read the GLB"));
+    put(
+        "mesh_gltf",
+        "tetra.glb",
+        &fs::read(&glb_path).expect("read the GLB"),
+    );
     let _ = fs::remove_file(&glb_path);
     // A glTF with its buffer (one triangle strip, not indexed) in a data URI, and two nodes.
     put(
