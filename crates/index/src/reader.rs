@@ -22,8 +22,11 @@
 //!   top 10 of the ranking equal to the exact one's for 99 of 100 queries; BENCHMARKS.md,
 //!   "Candidate search"). [`SearchMode`] chooses otherwise.
 //!
-//! Storing either structure on disk was rejected: it spans all segments, so every add would
-//! rewrite it whole. Distances are squared Euclidean, recomputed from the stored descriptors.
+//! Neither structure is part of the index on disk: each spans all segments, so every add would
+//! rewrite it whole. The inverted file is cached instead ([`SEARCH_CACHE_NAME`]): the reader
+//! that builds it writes it, keyed by the snapshot's segments and tombstones, and later readers
+//! of the same snapshot read it (`index/README.md`, "Search cache"). Distances are squared
+//! Euclidean, recomputed from the stored descriptors.
 
 use std::num::NonZero;
 use std::path::{Path, PathBuf};
