@@ -56,6 +56,24 @@ pub enum Error {
     },
 }
 
+/// An error and its causes on one line, `outer: inner: …`, leaving out a cause whose text the
+/// line already holds (an error that shows its source in its own message and also returns it as
+/// its source would otherwise say it twice: "No such file (os error 2): No such file (os
+/// error 2)").
+pub fn error_line(e: &(dyn std::error::Error + 'static)) -> String {
+    let mut line = e.to_string();
+    let mut source = e.source();
+    while let Some(s) = source {
+        let text = s.to_string();
+        if !line.contains(&text) {
+            line.push_str(": ");
+            line.push_str(&text);
+        }
+        source = s.source();
+    }
+    line
+}
+
 fn show(path: &Option<PathBuf>) -> String {
     path.as_ref()
         .map_or_else(|| "the mesh".to_string(), |p| p.display().to_string())

@@ -316,16 +316,7 @@ fn store(
 
 /// The error `e` about `path` as one line that names the file once.
 fn naming(path: &Path, e: &Error) -> String {
-    let mut why = e.to_string();
-    let mut source = std::error::Error::source(e);
-    while let Some(s) = source {
-        let text = s.to_string();
-        if !why.contains(&text) {
-            why.push_str(": ");
-            why.push_str(&text);
-        }
-        source = s.source();
-    }
+    let why = crate::error_line(e);
     let name = path.display().to_string();
     if why.contains(&name) {
         why

@@ -49,22 +49,10 @@ pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<()> {
 
 pub use keycomp::folders::{check_output_folder, create_output_folder};
 
-/// The error and its causes on one line, `outer: inner: …`, as anyhow's `{:#}` prints them, but
-/// without a cause whose text the message before it already holds (an error that shows its
-/// source in its own message and also returns it as its source would otherwise say it twice:
-/// "No such file or directory (os error 2): No such file or directory (os error 2)").
+/// The error and its causes on one line, as anyhow's `{:#}` prints them but saying each cause
+/// once ([`keycomp::error_line`]).
 pub fn error_chain(e: &anyhow::Error) -> String {
-    let mut line = String::new();
-    for cause in e.chain() {
-        let text = cause.to_string();
-        if line.is_empty() {
-            line = text;
-        } else if !line.contains(&text) {
-            line.push_str(": ");
-            line.push_str(&text);
-        }
-    }
-    line
+    keycomp::error_line(e.as_ref())
 }
 
 #[cfg(test)]
