@@ -133,6 +133,8 @@ pub struct AddSummary {
 
 /// Progress of [`add`]: called from the analysing threads.
 pub trait Progress: Sync {
+    /// The files to analyse are listed: `count` of them.
+    fn files(&self, _count: usize) {}
     /// One file is done (analysed, skipped as unchanged, or failed).
     fn file_done(&self) {}
     /// A file failed (with [`AddOptions::keep_going`]).
@@ -234,6 +236,7 @@ pub fn add_items(
     options: &AddOptions,
     progress: &dyn Progress,
 ) -> Result<AddSummary, Error> {
+    progress.files(files.len());
     let (mut writer, profile) = open_for_add(dir, options, || {
         let mut areas = areas_of(files);
         areas.extend(

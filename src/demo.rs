@@ -16,7 +16,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use crate::detect::DetectArgs;
-use crate::index_cmd::{Profile, progress};
+use crate::index_cmd::{Bar, Profile, progress};
 use crate::match_cmd::Analysed;
 use crate::{output, report};
 use keycomp::collection::{self, AddOptions, Units};
@@ -88,13 +88,7 @@ fn class_of(path: &Path) -> Option<Class> {
 /// content), but stops at the first file that cannot be analysed. Returns (added or replaced,
 /// unchanged).
 fn index_files(index: &Path, files: &[PathBuf], params: &Profile) -> Result<(usize, usize)> {
-    struct Bar(indicatif::ProgressBar);
-    impl collection::Progress for Bar {
-        fn file_done(&self) {
-            self.0.inc(1);
-        }
-    }
-    let bar = Bar(progress(files.len() as u64, "indexing"));
+    let bar = Bar(progress(0, "indexing"));
     let options = AddOptions {
         detect: Some(params.detect.clone()),
         units: Some(Units::ScaleFree),

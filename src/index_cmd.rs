@@ -147,9 +147,12 @@ pub fn run(cmd: IndexCommand) -> Result<ExitCode> {
 }
 
 /// Progress of an add on a bar, failures printed above it.
-struct Bar(ProgressBar);
+pub struct Bar(pub ProgressBar);
 
 impl collection::Progress for Bar {
+    fn files(&self, count: usize) {
+        self.0.set_length(count as u64);
+    }
     fn file_done(&self) {
         self.0.inc(1);
     }
@@ -164,9 +167,8 @@ fn add(args: AddArgs) -> Result<ExitCode> {
         units: args.units.units()?,
         keep_going: true,
     };
-    let files = keycomp::mesh_files(&args.paths)?;
-    let bar = Bar(progress(files.len() as u64, "indexing"));
-    let summary = collection::add(&args.dir.index, &files, &options, &bar);
+    let bar = Bar(progress(0, "indexing"));
+    let summary = collection::add(&args.dir.index, &args.paths, &options, &bar);
     bar.0.finish_and_clear();
     let s = summary?;
     if args.dir.json {
