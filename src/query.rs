@@ -4,7 +4,6 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::time::Instant;
 
 use anyhow::Result;
 use keycomp::search::{QueryTimings, Searcher};
@@ -45,28 +44,15 @@ pub fn run(args: Args) -> Result<ExitCode> {
         // before any work: the report's folder must be creatable
         crate::output::check_output_folder(dir)?;
     }
-    let t0 = Instant::now();
     let searcher = Searcher::open(&args.index, args.detect.explicit().as_ref())?;
     let reader = searcher.reader();
-    let open_ms = searcher.open_ms();
-    let t = Instant::now();
-    let q = searcher.analyse(&args.mesh)?;
-    let describe_ms = t.elapsed().as_secs_f64() * 1e3;
-    let t = Instant::now();
-    let ranked = searcher.rank(&q, args.k)?;
-    let search_ms = t.elapsed().as_secs_f64() * 1e3;
-    let answer = searcher.result(
-        &args.mesh.display().to_string(),
-        &q,
-        &ranked,
-        args.k,
-        QueryTimings {
-            describe: describe_ms,
-            open: open_ms,
-            search: search_ms,
-            total: t0.elapsed().as_secs_f64() * 1e3,
-        },
-    );
+    let (q, ranked, answer) = searcher.query_full(&args.mesh, args.k)?;
+    let QueryTimings {
+        describe: describe_ms,
+        open: open_ms,
+        search: search_ms,
+        ..
+    } = answer.timings_ms;
     let not_returned = &answer.not_returned;
     let report = match &args.report {
         Some(dir) => {

@@ -67,6 +67,14 @@ pub struct QueryResult {
     pub timings_ms: QueryTimings,
 }
 
+/// A ranking asks for at least one shape.
+fn check_k(k: usize) -> Result<(), Error> {
+    if k == 0 {
+        return Err(Error::Invalid("k must be at least 1".into()));
+    }
+    Ok(())
+}
+
 /// An index opened for queries, with the profile queries are analysed under.
 pub struct Searcher {
     dir: PathBuf,
@@ -134,9 +142,7 @@ impl Searcher {
     /// The `k` best shapes for an analysed query, best first (fewer when fewer shapes are
     /// candidates).
     pub fn rank(&self, query: &Analysed, k: usize) -> Result<Vec<Ranked>, Error> {
-        if k == 0 {
-            return Err(Error::Invalid("k must be at least 1".into()));
-        }
+        check_k(k)?;
         let (descriptors, layout) = query.view();
         Ok(rank(
             &self.reader,
@@ -197,22 +203,40 @@ impl Searcher {
 
     /// Analyses the query file at `path` and ranks the index for it: the `k` best shapes.
     pub fn query(&self, path: &Path, k: usize) -> Result<QueryResult, Error> {
+        Ok(self.query_full(path, k)?.2)
+    }
+
+    /// [`Searcher::query`], also returning the query's analysis and the ranking itself (for
+    /// a report that draws them).
+    pub fn query_full(
+        &self,
+        path: &Path,
+        k: usize,
+    ) -> Result<(Analysed, Vec<Ranked>, QueryResult), Error> {
+        check_k(k)?;
         let t = Instant::now();
         let q = self.analyse(path)?;
-        self.answer(&path.display().to_string(), &q, k, t)
+        self.answer(&path.display().to_string(), q, k, t)
     }
 
     /// Analyses the query mesh in memory, named `name`, and ranks the index for it.
     pub fn query_mesh(&self, name: &str, mesh: Mesh, k: usize) -> Result<QueryResult, Error> {
+        check_k(k)?;
         let t = Instant::now();
         let q = self.analyse_mesh(mesh)?;
-        self.answer(name, &q, k, t)
+        Ok(self.answer(name, q, k, t)?.2)
     }
 
-    fn answer(&self, name: &str, q: &Analysed, k: usize, t: Instant) -> Result<QueryResult, Error> {
+    fn answer(
+        &self,
+        name: &str,
+        q: Analysed,
+        k: usize,
+        t: Instant,
+    ) -> Result<(Analysed, Vec<Ranked>, QueryResult), Error> {
         let describe = t.elapsed().as_secs_f64() * 1e3;
         let s = Instant::now();
-        let ranked = self.rank(q, k)?;
+        let ranked = self.rank(&q, k)?;
         let search = s.elapsed().as_secs_f64() * 1e3;
         let timings = QueryTimings {
             describe,
@@ -220,6 +244,7 @@ impl Searcher {
             search,
             total: self.open_ms + t.elapsed().as_secs_f64() * 1e3,
         };
-        Ok(self.result(name, q, &ranked, k, timings))
+        let result = self.result(name, &q, &ranked, k, timings);
+        Ok((q, ranked, result))
     }
 }
