@@ -138,6 +138,16 @@ struct Stored {
     cell: Vec<u32>,
 }
 
+/// Keeps the `n` smallest elements of `v` by `cmp` (a total order), in no particular order.
+fn keep_smallest<T>(v: &mut Vec<T>, n: usize, cmp: impl FnMut(&T, &T) -> std::cmp::Ordering) {
+    if n == 0 {
+        v.clear();
+    } else if v.len() > n {
+        v.select_nth_unstable_by(n - 1, cmp);
+        v.truncate(n);
+    }
+}
+
 /// The inverted file (see the module documentation).
 #[derive(Debug, PartialEq)]
 pub(crate) struct Ivf {
@@ -330,16 +340,20 @@ impl Ivf {
             .enumerate()
             .map(|(i, c)| (distance_sq(c, q), i))
             .collect();
-        coarse.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        keep_smallest(&mut coarse, COARSE_PROBES, |a, b| {
+            a.0.total_cmp(&b.0).then(a.1.cmp(&b.1))
+        });
         let mut fine: Vec<(f32, usize, usize)> = Vec::new();
-        for &(_, ci) in coarse.iter().take(COARSE_PROBES) {
+        for &(_, ci) in &coarse {
             for (fi, c) in self.fine[ci].chunks_exact(d).enumerate() {
                 fine.push((distance_sq(c, q), ci, fi));
             }
         }
-        fine.sort_by(|a, b| a.0.total_cmp(&b.0).then((a.1, a.2).cmp(&(b.1, b.2))));
+        keep_smallest(&mut fine, FINE_PROBES, |a, b| {
+            a.0.total_cmp(&b.0).then((a.1, a.2).cmp(&(b.1, b.2)))
+        });
         let mut found: Vec<(u32, f32)> = Vec::new();
-        for &(_, ci, fi) in fine.iter().take(FINE_PROBES) {
+        for &(_, ci, fi) in &fine {
             let (start, end) = self.ranges[ci][fi];
             for j in start as usize..end as usize {
                 found.push((
@@ -349,12 +363,8 @@ impl Ivf {
             }
         }
         let by = |a: &(u32, f32), b: &(u32, f32)| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0));
-        if found.len() > k && k > 0 {
-            found.select_nth_unstable_by(k - 1, by);
-            found.truncate(k);
-        }
+        keep_smallest(&mut found, k, by);
         found.sort_by(by);
-        found.truncate(k);
         found
     }
 
