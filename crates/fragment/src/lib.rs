@@ -116,6 +116,17 @@ pub enum PartialError {
     Empty(PartialKind),
 }
 
+/// An orthonormal basis (u, w) of the image plane of a view along the unit vector `d`.
+fn image_basis(d: Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+    let helper = if d.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
+    let u = d.cross(&helper).normalize();
+    (u, d.cross(&u))
+}
+
 /// A uniformly random unit vector.
 fn random_direction(rng: &mut ChaCha8Rng) -> Vector3<f64> {
     let z: f64 = rng.random_range(-1.0..=1.0);
@@ -249,14 +260,7 @@ fn ball(
 pub fn visible_faces(mesh: &Mesh, d: Vector3<f64>) -> Vec<bool> {
     let n_faces = mesh.num_faces();
     let d = d.normalize();
-    // image-plane basis
-    let helper = if d.x.abs() < 0.9 {
-        Vector3::x()
-    } else {
-        Vector3::y()
-    };
-    let u = d.cross(&helper).normalize();
-    let w = d.cross(&u);
+    let (u, w) = image_basis(d);
     let proj: Vec<[f64; 3]> = mesh
         .positions
         .iter()
@@ -359,13 +363,7 @@ pub fn visible_faces(mesh: &Mesh, d: Vector3<f64>) -> Vec<bool> {
 fn scan(mesh: &Mesh, areas: &[f64], target: f64, rng: &mut ChaCha8Rng) -> (Vec<bool>, String) {
     let d = random_direction(rng);
     let seen = visible_faces(mesh, d);
-    let helper = if d.x.abs() < 0.9 {
-        Vector3::x()
-    } else {
-        Vector3::y()
-    };
-    let u = d.cross(&helper).normalize();
-    let w = d.cross(&u);
+    let (u, w) = image_basis(d);
     let faces: Vec<usize> = (0..mesh.num_faces()).filter(|&f| seen[f]).collect();
     let centres: Vec<(f64, f64)> = (0..mesh.num_faces())
         .map(|f| {
