@@ -423,6 +423,35 @@ impl GeodesicSolver {
         targets: &[VertexId],
         ws: &mut Workspace,
     ) -> Result<(), GeodesicError> {
+        self.solve_bounded(source, targets, f64::INFINITY, ws)
+            .map(|_| ())
+    }
+
+    /// Runs a front from `source` and stops before freezing the first vertex farther than
+    /// `max_distance`: afterwards every vertex within `max_distance` holds its final distance in
+    /// `ws` and every other vertex +∞. Returns whether the front covered its whole connected
+    /// piece (nothing was beyond `max_distance`), so that +∞ then means another piece. The
+    /// cost is that of the vertices reached, which makes fronts for small neighbourhoods cheap.
+    /// A NaN or +∞ `max_distance` runs the whole piece.
+    pub fn solve_within(
+        &self,
+        source: VertexId,
+        max_distance: f64,
+        ws: &mut Workspace,
+    ) -> Result<bool, GeodesicError> {
+        self.solve_bounded(source, &[], max_distance, ws)
+    }
+
+    /// [`GeodesicSolver::solve_until`] and [`GeodesicSolver::solve_within`] together: stops at
+    /// the last target or beyond `limit`, whichever comes first; returns whether the front ran
+    /// its whole piece.
+    fn solve_bounded(
+        &self,
+        source: VertexId,
+        targets: &[VertexId],
+        limit: f64,
+        ws: &mut Workspace,
+    ) -> Result<bool, GeodesicError> {
         self.check(source)?;
         for &t in targets {
             self.check(t)?;
@@ -452,10 +481,12 @@ impl GeodesicSolver {
             is_target,
         };
         // one loop per queue type (monomorphised: no dispatch per operation)
-        match queue {
-            QueueConfig::Heap => self.march(source, &mut front, heap, early, remaining),
-            QueueConfig::Buckets(_) => self.march(source, &mut front, buckets, early, remaining),
-        }
+        let complete = match queue {
+            QueueConfig::Heap => self.march(source, &mut front, heap, early, remaining, limit),
+            QueueConfig::Buckets(_) => {
+                self.march(source, &mut front, buckets, early, remaining, limit)
+            }
+        };
         for &t in targets {
             ws.is_target[t as usize] = false;
         }
@@ -468,7 +499,7 @@ impl GeodesicSolver {
                 f64::INFINITY
             };
         }
-        Ok(())
+        Ok(complete)
     }
 
     /// Distances from `source` to every vertex (+∞ where unreachable), in a new vector.
@@ -497,7 +528,8 @@ impl GeodesicSolver {
         queue: &mut Q,
         early: bool,
         mut remaining: usize,
-    ) {
+        limit: f64,
+    ) -> bool {
         let Front {
             dist,
             touched,
@@ -513,11 +545,14 @@ impl GeodesicSolver {
             if dist[xi].to_bits() != dx.to_bits() {
                 continue;
             }
+            if dx > limit {
+                return false;
+            }
             dist[xi] = -dx;
             if early && is_target[xi] {
                 remaining -= 1;
                 if remaining == 0 {
-                    break;
+                    return false;
                 }
             }
             let [a, m] = self.runs[xi];
@@ -582,6 +617,7 @@ impl GeodesicSolver {
                 relax(t.id, cand, dist, touched, queue);
             }
         }
+        true
     }
 }
 

@@ -152,6 +152,34 @@ fn early_termination_gives_the_same_target_distances() {
 }
 
 #[test]
+fn a_front_within_a_radius_is_exact_inside_and_unreached_outside() {
+    let mesh = random_blob(12, 4);
+    let topo = Topology::new(&mesh);
+    let solver = GeodesicSolver::new(&mesh, &topo).unwrap();
+    let full = solver.distance_field(7).unwrap();
+    let far = full.iter().copied().fold(0.0, f64::max);
+    let mut ws = solver.workspace();
+    for radius in [0.0, 0.3, 1.0, 0.5 * far] {
+        let complete = solver.solve_within(7, radius, &mut ws).unwrap();
+        assert!(!complete, "radius {radius} is inside the piece");
+        for (a, b) in ws.distances().iter().zip(&full) {
+            if *b <= radius {
+                assert_eq!(a, b);
+            } else {
+                assert!(a.is_infinite(), "{a} beyond {radius}");
+            }
+        }
+        // fewer vertices touched than a full front would
+        assert!(ws.reached().len() < full.len());
+    }
+    // a radius beyond the farthest vertex, +∞ and NaN run the whole piece
+    for radius in [2.0 * far, f64::INFINITY, f64::NAN] {
+        assert!(solver.solve_within(7, radius, &mut ws).unwrap());
+        assert_eq!(ws.distances(), &full[..]);
+    }
+}
+
+#[test]
 fn results_do_not_depend_on_the_thread_count() {
     let mesh = random_blob(5, 3);
     let topo = Topology::new(&mesh);
