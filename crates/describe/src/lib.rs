@@ -139,6 +139,12 @@ pub struct DescribeParams {
     /// inverse-frequency weights) it lowered NN from 0.625 to 0.550 (balls), 0.825 to 0.730
     /// (plane cuts) and 0.395 to 0.280 (scans) (BENCHMARKS.md, *Ablation*).
     pub complete_only: bool,
+    /// How far (in the length unit) the fronts from patch centres run, at least their level's
+    /// radius; `None` runs every front over the whole mesh. Layout distances beyond the reach
+    /// are [`NO_DISTANCE`] (matching checks only the pairs it has), and a level's centres
+    /// beyond the reach of every centre taken are chosen by Euclidean distance. Fronts from
+    /// key-components and the whole surface always run over the whole mesh.
+    pub layout_reach: Option<f64>,
 }
 
 impl Default for DescribeParams {
@@ -151,6 +157,7 @@ impl Default for DescribeParams {
             whole: true,
             units: Units::ScaleFree,
             complete_only: false,
+            layout_reach: None,
         }
     }
 }
@@ -321,18 +328,35 @@ fn curvatures(fit: &LocalFit, normal: &Vector3<f64>) -> (f64, f64) {
     }
 }
 
-/// Fronts from part centres, computed once per centre.
+/// A front from a part centre: distances up to `limit` (+∞ beyond), `complete` when it covered
+/// its whole connected piece.
+struct Front {
+    limit: f64,
+    complete: bool,
+    d: Vec<f64>,
+}
+
+/// Fronts from part centres, computed once per centre (again only when a longer reach is asked).
 struct Fronts<'a> {
     solver: &'a GeodesicSolver,
     ws: keycomp_geodesic::Workspace,
-    done: HashMap<u32, Vec<f64>>,
+    done: HashMap<u32, Front>,
 }
 
 impl Fronts<'_> {
-    fn get(&mut self, c: u32) -> Result<&Vec<f64>, DescribeError> {
-        if !self.done.contains_key(&c) {
-            self.solver.solve(c, &mut self.ws)?;
-            self.done.insert(c, self.ws.distances().to_vec());
+    fn get(&mut self, c: u32, limit: f64) -> Result<&Front, DescribeError> {
+        let fresh = self
+            .done
+            .get(&c)
+            .is_some_and(|f| f.complete || f.limit >= limit);
+        if !fresh {
+            let complete = self.solver.solve_within(c, limit, &mut self.ws)?;
+            let front = Front {
+                limit,
+                complete,
+                d: self.ws.distances().to_vec(),
+            };
+            self.done.insert(c, front);
         }
         Ok(&self.done[&c])
     }
@@ -341,6 +365,8 @@ impl Fronts<'_> {
 /// A part before description.
 struct Part {
     center: u32,
+    /// How far its centre's front must run (+∞: the whole mesh).
+    reach: f64,
     vertices: Vec<u32>,
     keypoints: usize,
     level: u8,
@@ -473,6 +499,7 @@ pub fn describe_with(
     for c in &det.components {
         let p = Part {
             center: c.center,
+            reach: f64::INFINITY,
             vertices: c.vertices.clone(),
             keypoints: c.keypoints.len(),
             level: 0,
@@ -485,7 +512,10 @@ pub fn describe_with(
     }
     if n > 0 {
         for (l, &radius) in params.levels.iter().enumerate() {
+            let reach = params.layout_reach.map_or(f64::INFINITY, |r| r.max(radius));
             let mut nearest = vec![f64::INFINITY; n];
+            // Euclidean distance to the nearest centre, ranking the vertices beyond the reach
+            let mut euclid = vec![f64::INFINITY; n];
             let mut rejected = vec![false; n];
             let (mut chosen, mut fronts_run) = (0, 0);
             let mut candidates = det.keypoints.iter().copied();
@@ -496,20 +526,27 @@ pub fn describe_with(
                     .by_ref()
                     .find(|&k| nearest[k as usize] >= radius && !rejected[k as usize])
                     .or_else(|| {
-                        let (v, d) = nearest
-                            .iter()
-                            .enumerate()
-                            .filter(|(v, _)| !rejected[*v])
-                            .max_by(|a, b| a.1.total_cmp(b.1).then(b.0.cmp(&a.0)))?;
-                        (*d >= radius).then_some(v as u32)
+                        let far = |v: usize| {
+                            if nearest[v].is_finite() || euclid[v].is_infinite() {
+                                nearest[v]
+                            } else {
+                                reach + euclid[v]
+                            }
+                        };
+                        let (v, d) = (0..n)
+                            .filter(|&v| !rejected[v])
+                            .map(|v| (v, far(v)))
+                            .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)))?;
+                        (d >= radius).then_some(v as u32)
                     });
                 let Some(c) = next else { break };
                 fronts_run += 1;
-                let d = fronts.get(c)?;
+                let d = &fronts.get(c, reach)?.d;
                 let vertices: Vec<u32> =
                     (0..n as u32).filter(|&v| d[v as usize] <= radius).collect();
                 let part = Part {
                     center: c,
+                    reach,
                     keypoints: count_keypoints(&vertices),
                     vertices,
                     level: (l + 1).min(254) as u8,
@@ -525,6 +562,12 @@ pub fn describe_with(
                     *m = m.min(x);
                 }
                 nearest[c as usize] = 0.0;
+                if reach.is_finite() {
+                    let pc = surface.mesh.positions[c as usize];
+                    for (e, p) in euclid.iter_mut().zip(&surface.mesh.positions) {
+                        *e = e.min((p - pc).norm());
+                    }
+                }
                 chosen += 1;
                 if part.vertices.len() >= 3 {
                     parts.push(part);
@@ -549,6 +592,7 @@ pub fn describe_with(
                 .unwrap_or(0) as u32;
             let whole = Part {
                 center,
+                reach: f64::INFINITY,
                 vertices: (0..n as u32).collect(),
                 keypoints: det.keypoints.len(),
                 level: whole_level,
@@ -569,9 +613,13 @@ pub fn describe_with(
     let m = parts.len();
     let centers: Vec<u32> = parts.iter().map(|p| p.center).collect();
     let mut layout = vec![0f32; m * m];
+    // whether each part's front covered its whole piece (+∞ then means another piece)
+    let mut complete = Vec::with_capacity(m);
     let mut components = Vec::with_capacity(m);
     for (ci, p) in parts.into_iter().enumerate() {
-        let d = fronts.get(p.center)?;
+        let front = fronts.get(p.center, p.reach)?;
+        let d = &front.d;
+        complete.push(front.complete);
         for (cj, &o) in centers.iter().enumerate() {
             layout[ci * m + cj] = d[o as usize] as f32;
         }
@@ -586,7 +634,8 @@ pub fn describe_with(
             vertices: p.vertices,
         });
     }
-    // symmetrise the layout; disconnected pairs get twice the largest finite distance
+    // symmetrise the layout; disconnected pairs get twice the largest finite distance, pairs
+    // beyond the reach of both fronts none
     let finite_max = layout
         .iter()
         .copied()
@@ -601,8 +650,12 @@ pub fn describe_with(
                 NO_DISTANCE
             } else if a.is_finite() && b.is_finite() {
                 0.5 * (a + b)
-            } else {
+            } else if a.is_finite() || b.is_finite() {
+                a.min(b)
+            } else if complete[i] || complete[j] {
                 2.0 * finite_max
+            } else {
+                NO_DISTANCE
             };
             layout[i * m + j] = v;
             layout[j * m + i] = v;

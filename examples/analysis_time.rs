@@ -1,0 +1,53 @@
+//! Wall time of detection and of description per mesh, median of `--runs` (default 3).
+//!
+//! `cargo run --release --example analysis_time -- [--runs N] [--layout-reach R|none] MESH...`
+//!
+//! Prints one line per mesh: vertices, parts, detection ms, description ms, and their ratio.
+
+use keycomp::analysis::Profile;
+use keycomp_components::{DetectParams, detect};
+use keycomp_describe::describe_with;
+use std::time::Instant;
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    let mut runs = 3;
+    if let Some(i) = args.iter().position(|a| a == "--runs") {
+        runs = args.get(i + 1).ok_or("--runs needs a number")?.parse()?;
+        args.drain(i..i + 2);
+    }
+    let mut profile = Profile::current(&DetectParams::default());
+    if let Some(i) = args.iter().position(|a| a == "--layout-reach") {
+        let r = args
+            .get(i + 1)
+            .ok_or("--layout-reach needs a length or 'none'")?;
+        profile.describe.layout_reach = if r == "none" { None } else { Some(r.parse()?) };
+        args.drain(i..i + 2);
+    }
+    println!("mesh | vertices | parts | detect ms | describe ms | describe / detect");
+    for path in &args {
+        let mesh = keycomp_mesh::read_mesh(std::path::Path::new(path))?.mesh;
+        let (mut td, mut tp, mut parts) = (Vec::new(), Vec::new(), 0);
+        for _ in 0..runs {
+            let t = Instant::now();
+            let det = detect(&mesh, &profile.detect)?;
+            td.push(t.elapsed().as_secs_f64() * 1e3);
+            let t = Instant::now();
+            let desc = describe_with(&mesh, &det, &profile.describe)?;
+            tp.push(t.elapsed().as_secs_f64() * 1e3);
+            parts = desc.components.len();
+        }
+        let (d, p) = (median(td), median(tp));
+        println!(
+            "{path} | {} | {parts} | {d:.0} | {p:.0} | {:.2}",
+            mesh.num_vertices(),
+            p / d
+        );
+    }
+    Ok(())
+}
