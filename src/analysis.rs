@@ -122,6 +122,8 @@ pub struct Analysed {
     pub description: ShapeDescription,
     /// Wall time of the analysis (reading included for a file), in milliseconds.
     pub ms: f64,
+    /// The length unit it was described in.
+    pub units: keycomp_describe::Units,
 }
 
 /// Reads, detects and describes one mesh file under `profile`.
@@ -155,6 +157,7 @@ fn analyse_in(mesh: Mesh, profile: &Profile, path: Option<&Path>) -> Result<Anal
         detection,
         description,
         ms: t.elapsed().as_secs_f64() * 1e3,
+        units: profile.describe.units,
     })
 }
 
@@ -171,25 +174,60 @@ impl Analysed {
         )
     }
 
+    /// Its parts' areas as `keycomp_retrieval::ShapeView::areas` wants them (the same
+    /// quantity `keycomp_retrieval::record_areas` gives for an indexed shape): area fractions
+    /// when scale-free, times the surface area in file units; empty when `params` has the area
+    /// check off.
+    pub fn areas(&self, params: &keycomp_retrieval::MatchParams) -> Vec<f32> {
+        if params.area_tolerance <= 1.0 {
+            return Vec::new();
+        }
+        let unit = match self.units {
+            keycomp_describe::Units::ScaleFree => 1.0,
+            keycomp_describe::Units::File { .. } => self.detection.area,
+        };
+        self.description
+            .components
+            .iter()
+            .map(|c| (c.area * unit) as f32)
+            .collect()
+    }
+
+    /// The matching parameters for shapes described like this one: `base` with
+    /// `file_units` set from [`Analysed::units`].
+    pub fn match_params(
+        &self,
+        base: &keycomp_retrieval::MatchParams,
+    ) -> keycomp_retrieval::MatchParams {
+        keycomp_retrieval::MatchParams {
+            file_units: matches!(self.units, keycomp_describe::Units::File { .. }),
+            ..*base
+        }
+    }
+
     /// Part-to-part matching of this shape (as the query) against `other` (Kuhn–Munkres on
-    /// descriptor distances, then the layout check; `keycomp_retrieval::match_shapes`).
+    /// descriptor distances, then the layout and area checks; `keycomp_retrieval::match_shapes`).
     pub fn match_with(
         &self,
         other: &Analysed,
         params: &keycomp_retrieval::MatchParams,
     ) -> keycomp_retrieval::ShapeMatch {
+        let params = self.match_params(params);
         let (da, la) = self.view();
         let (db, lb) = other.view();
+        let (aa, ab) = (self.areas(&params), other.areas(&params));
         keycomp_retrieval::match_shapes(
             keycomp_retrieval::ShapeView {
                 descriptors: &da,
                 layout: la,
+                areas: &aa,
             },
             keycomp_retrieval::ShapeView {
                 descriptors: &db,
                 layout: lb,
+                areas: &ab,
             },
-            params,
+            &params,
         )
     }
 

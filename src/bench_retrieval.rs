@@ -145,6 +145,18 @@ pub struct Args {
     /// Ablation: no whole-surface part.
     #[arg(long)]
     pub no_whole: bool,
+    /// Ablation: how far the fronts from patch centres run (`DescribeParams::layout_reach`, in
+    /// the length unit; 'none' for the whole mesh) [default: the description's].
+    #[arg(long, value_name = "R")]
+    pub layout_reach: Option<String>,
+    /// Key-components only: leave out D2 and the FPFH bags of words (quicker ablations; the
+    /// tables then have no baseline column).
+    #[arg(long)]
+    pub no_baselines: bool,
+    /// Ablation: the size check's tolerance (`MatchParams::area_tolerance`; 0 turns it off)
+    /// [default: the matching's].
+    #[arg(long, value_name = "T")]
+    pub area_tolerance: Option<f64>,
     /// Ablation: weigh query parts by their inverse frequency in the index
     /// (`MatchParams::idf`).
     #[arg(long)]
@@ -699,7 +711,13 @@ fn kc_ranking(
     if descs.is_empty() {
         return Ok(Vec::new());
     }
-    let ranked = rank(reader, &descs, &record.layout, index_of.len(), match_params)?;
+    let areas = keycomp_retrieval::record_areas(record, match_params);
+    let view = keycomp_retrieval::ShapeView {
+        descriptors: &descs,
+        layout: &record.layout,
+        areas: &areas,
+    };
+    let ranked = rank(reader, view, index_of.len(), match_params)?;
     Ok(ranked
         .iter()
         .filter_map(|r| index_of.get(&r.path).copied())
@@ -776,11 +794,31 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
         describe.patches_per_level = p;
     }
     describe.whole = !args.no_whole;
+    if let Some(r) = &args.layout_reach {
+        describe.layout_reach = if r.trim() == "none" {
+            None
+        } else {
+            match r.trim().parse::<f64>() {
+                Ok(x) if x.is_finite() && x > 0.0 => Some(x),
+                _ => bail!("--layout-reach: expected a positive length or 'none', got '{r}'"),
+            }
+        };
+    }
     describe.complete_only = args.complete_only;
     let match_params = MatchParams {
         idf: args.idf,
+        file_units: matches!(describe.units, keycomp_describe::Units::File { .. }),
+        area_tolerance: args
+            .area_tolerance
+            .unwrap_or(MatchParams::default().area_tolerance),
         ..MatchParams::default()
     };
+    if !(match_params.area_tolerance.is_finite() && match_params.area_tolerance >= 0.0) {
+        bail!(
+            "--area-tolerance: expected a factor ≥ 1, or 0 for no check, got {}",
+            match_params.area_tolerance
+        );
+    }
     let params = Profile::with(&detect.retrieval_params(), describe);
     let d2_params = D2Params {
         pairs: args.d2_pairs,
@@ -805,11 +843,14 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
             let r = (|| {
                 let hash = ContentHash::of_file(p)?;
                 let (rec, hit) = cache.record(p, hash, &params)?;
+                if args.no_baselines {
+                    return Ok((rec, hit, None));
+                }
                 let mesh = read_mesh(p)?.mesh;
                 let h = d2(&mesh, &d2_params).with_context(|| format!("{}: D2", p.display()))?;
                 let pts = sample_oriented(&mesh, &fpfh_params)
                     .with_context(|| format!("{}: FPFH", p.display()))?;
-                Ok((rec, hit, h, pts))
+                Ok((rec, hit, Some((h, pts))))
             })();
             bar.inc(1);
             r
@@ -821,11 +862,13 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
     let mut points = Vec::with_capacity(n);
     let mut hits = 0;
     for (p, r) in files.iter().zip(analysed) {
-        let (rec, hit, h, pts) = r.with_context(|| format!("{}: cannot analyse", p.display()))?;
+        let (rec, hit, baseline) = r.with_context(|| format!("{}: cannot analyse", p.display()))?;
         hits += usize::from(hit);
         records.push(rec);
-        hists.push(h);
-        points.push(pts);
+        if let Some((h, pts)) = baseline {
+            hists.push(h);
+            points.push(pts);
+        }
     }
     let detect_s = t0.elapsed().as_secs_f64();
 
@@ -840,14 +883,17 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
             FpfhScale::file_units(&areas),
         ),
     ];
-    let mut baselines = vec![Baseline {
-        label: "D2",
-        key: "d2",
-        collection: hists,
-        describe: Box::new(move |m: &Mesh| Ok(d2(m, &d2_params)?)),
-        distance: l1,
-    }];
-    for (label, key, scale) in fpfh_scales {
+    let mut baselines = Vec::new();
+    if !args.no_baselines {
+        baselines.push(Baseline {
+            label: "D2",
+            key: "d2",
+            collection: hists,
+            describe: Box::new(move |m: &Mesh| Ok(d2(m, &d2_params)?)),
+            distance: l1,
+        });
+    }
+    for (label, key, scale) in fpfh_scales.into_iter().filter(|_| !args.no_baselines) {
         baselines.push(fpfh_baseline(
             label,
             key,

@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use keycomp_components::DetectParams;
 use keycomp_mesh::Mesh;
-use keycomp_retrieval::{MatchParams, Ranked, rank};
+use keycomp_retrieval::{MatchParams, Ranked, ShapeView, rank};
 use serde::{Deserialize, Serialize};
 
 use crate::collection::Reader;
@@ -144,13 +144,14 @@ impl Searcher {
     pub fn rank(&self, query: &Analysed, k: usize) -> Result<Vec<Ranked>, Error> {
         check_k(k)?;
         let (descriptors, layout) = query.view();
-        Ok(rank(
-            &self.reader,
-            &descriptors,
+        let params = query.match_params(&MatchParams::default());
+        let areas = query.areas(&params);
+        let view = ShapeView {
+            descriptors: &descriptors,
             layout,
-            k,
-            &MatchParams::default(),
-        )?)
+            areas: &areas,
+        };
+        Ok(rank(&self.reader, view, k, &params)?)
     }
 
     /// The serialisable answer for a query named `name` with its ranking `ranked` (from

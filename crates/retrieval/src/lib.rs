@@ -14,12 +14,18 @@
 //!    one scale factor s for the whole shape (a fragment is normalised to unit area on its own,
 //!    so its lengths differ from the full shape's by an unknown factor). s is the median of
 //!    `dt/dq` over all kept pairs of pairs with a distance on both sides (the whole-surface
-//!    part has none); a pair of pairs agrees when
+//!    part has none), or 1 when both shapes are in the same length unit
+//!    ([`MatchParams::file_units`]); a pair of pairs agrees when
 //!    `|ln(dt / (s·dq))| ≤ ln(`[`MatchParams::layout_tolerance`]`)`. While some match disagrees
 //!    with more than half of the others it can be compared with, the one with most
 //!    disagreements (then the larger descriptor distance) is dropped. With fewer than three
 //!    matches there is nothing to check.
-//! 4. Score: the kept similarities, each times its query part's weight, summed and divided by
+//! 4. Size consistency ([`MatchParams::area_tolerance`], when both shapes give their parts'
+//!    areas, [`ShapeView::areas`]): lengths scale by s, so areas scale by s². A kept pair
+//!    (i, a) whose target area is not within that factor of `s² · area(i)` is dropped: the
+//!    descriptors are scale-free, so a small patch can look like a large one, and the layout
+//!    check only sees where parts are, not how large they are.
+//! 5. Score: the kept similarities, each times its query part's weight, summed and divided by
 //!    the sum of the weights of all query parts, in [0, 1]: 1 when every query part has an
 //!    identical partner in a consistent layout. Dividing by the query's parts (not the
 //!    target's) lets a fragment match the whole shape it was cut from. [`match_shapes`] weighs
@@ -30,7 +36,9 @@
 
 mod query;
 
-pub use query::{CANDIDATES_PER_COMPONENT, MATCHED_CANDIDATES, Ranked, idf_weights, rank};
+pub use query::{
+    CANDIDATES_PER_COMPONENT, MATCHED_CANDIDATES, Ranked, idf_weights, rank, record_areas,
+};
 
 use keycomp_describe::Descriptor;
 use pathfinding::kuhn_munkres::kuhn_munkres;
@@ -52,6 +60,18 @@ pub struct MatchParams {
     /// Watertight it lowered fragment NN (balls 0.670 to 0.625, plane cuts 0.875 to 0.825) for
     /// a whole-shape mAP gain of 0.012 (BENCHMARKS.md, *Ablation*).
     pub idf: bool,
+    /// Largest factor by which a matched pair's part areas may disagree after scaling by the
+    /// square of the layout's scale (see *Steps*); 0 turns the check off. Default 6 (a factor
+    /// of about 2.4 in length, between one and two patch levels): on SHREC'07 Watertight and
+    /// TOSCA fragments, tolerances 4, 6 and 9 all beat no check, 6 best overall
+    /// (BENCHMARKS.md, *Size consistency*).
+    pub area_tolerance: f64,
+    /// Whether both shapes are measured in the same length unit
+    /// ([`keycomp_describe::Units::File`]): the layout's scale is then 1 instead of an
+    /// estimate, and the areas [`rank`] compares are each part's area fraction times its
+    /// shape's surface area instead of the fraction alone (scale-free, where every shape has
+    /// unit area). Default false.
+    pub file_units: bool,
 }
 
 impl Default for MatchParams {
@@ -60,6 +80,8 @@ impl Default for MatchParams {
             max_distance: 0.8,
             layout_tolerance: 1.5,
             idf: false,
+            area_tolerance: 6.0,
+            file_units: false,
         }
     }
 }
@@ -72,6 +94,9 @@ pub struct ShapeView<'a> {
     pub descriptors: &'a [Descriptor],
     /// Distances between centres, `m × m` row-major.
     pub layout: &'a [f32],
+    /// Each part's area in the square of the layout's unit (or all of them times one common
+    /// factor); empty: no area check.
+    pub areas: &'a [f32],
 }
 
 impl ShapeView<'_> {
@@ -285,9 +310,12 @@ pub(crate) fn match_distances(
                 }
             }
         }
-        let Some(s) = median_in_place(&mut pooled) else {
+        let Some(mut s) = median_in_place(&mut pooled) else {
             break;
         };
+        if params.file_units {
+            s = 1.0;
+        }
         scale = Some(s);
         // per kept match: (pairs that disagree, pairs with a distance on both sides)
         let counts: Vec<(usize, usize)> = alive
@@ -319,6 +347,25 @@ pub(crate) fn match_distances(
             }
             _ => break,
         }
+    }
+    // the parts' sizes must agree with the layout's scale too
+    if let Some(s) = scale
+        && params.area_tolerance > 1.0
+        && !query.areas.is_empty()
+        && !target.areas.is_empty()
+    {
+        let tol = params.area_tolerance;
+        alive.retain(|&a| {
+            let m = &matches[a];
+            let (aq, at) = (
+                query.areas.get(m.query).copied().unwrap_or(f32::NAN) as f64,
+                target.areas.get(m.target).copied().unwrap_or(f32::NAN) as f64,
+            );
+            let q = at / (s * s * aq);
+            let keep = !(q > tol || q * tol < 1.0);
+            rejected += usize::from(!keep);
+            keep
+        });
     }
     if alive.len() < k0 {
         let keep: Vec<ComponentMatch> = alive.iter().map(|&a| matches[a]).collect();
@@ -367,6 +414,7 @@ mod tests {
         let v = ShapeView {
             descriptors: &ds,
             layout: &l,
+            areas: &[],
         };
         let m = match_shapes(v, v, &MatchParams::default());
         assert_eq!(m.matches.len(), 5);
@@ -387,10 +435,12 @@ mod tests {
             ShapeView {
                 descriptors: &ds,
                 layout: &lq,
+                areas: &[],
             },
             ShapeView {
                 descriptors: &dt,
                 layout: &lt,
+                areas: &[],
             },
             &MatchParams::default(),
         );
@@ -412,16 +462,62 @@ mod tests {
             ShapeView {
                 descriptors: &ds,
                 layout: &lq,
+                areas: &[],
             },
             ShapeView {
                 descriptors: &ds,
                 layout: &lt,
+                areas: &[],
             },
             &MatchParams::default(),
         );
         assert_eq!(m.rejected, 1);
         assert!(m.matches.iter().all(|x| x.query != 4));
         assert!((m.score - 0.8).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_part_of_the_wrong_size_is_rejected() {
+        // target three times as long: areas nine times as large, but part 2's is not
+        let xs = [0.0, 1.0, 2.5, 4.0, 7.0];
+        let ds: Vec<Descriptor> = (0..5).map(desc).collect();
+        let xt: Vec<f32> = xs.iter().map(|x| x * 3.0).collect();
+        let (lq, lt) = (layout(&xs), layout(&xt));
+        let aq = [0.1f32, 0.2, 0.05, 0.1, 0.3];
+        let mut at: Vec<f32> = aq.iter().map(|a| a * 9.0).collect();
+        at[2] *= 6.0;
+        let params = MatchParams {
+            area_tolerance: 3.0,
+            ..MatchParams::default()
+        };
+        let run = |at: &[f32], params: &MatchParams| {
+            match_shapes(
+                ShapeView {
+                    descriptors: &ds,
+                    layout: &lq,
+                    areas: &aq,
+                },
+                ShapeView {
+                    descriptors: &ds,
+                    layout: &lt,
+                    areas: at,
+                },
+                params,
+            )
+        };
+        let m = run(&at, &params);
+        assert_eq!(m.rejected, 1);
+        assert!(m.matches.iter().all(|x| x.query != 2));
+        // within the tolerance, or with the check off, or without areas: kept
+        at[2] = aq[2] * 9.0 * 2.5;
+        assert_eq!(run(&at, &params).rejected, 0);
+        at[2] = aq[2] * 9.0 * 6.0;
+        let off = MatchParams {
+            area_tolerance: 0.0,
+            ..params
+        };
+        assert_eq!(run(&at, &off).rejected, 0);
+        assert_eq!(run(&[], &params).rejected, 0);
     }
 
     #[test]
@@ -434,10 +530,12 @@ mod tests {
             ShapeView {
                 descriptors: &part,
                 layout: &lp,
+                areas: &[],
             },
             ShapeView {
                 descriptors: &ds,
                 layout: &l,
+                areas: &[],
             },
             &MatchParams::default(),
         );
@@ -449,10 +547,12 @@ mod tests {
             ShapeView {
                 descriptors: &far,
                 layout: &lp,
+                areas: &[],
             },
             ShapeView {
                 descriptors: &ds,
                 layout: &l,
+                areas: &[],
             },
             &MatchParams::default(),
         );
@@ -472,6 +572,7 @@ mod tests {
         let v = ShapeView {
             descriptors: &ds,
             layout: &l,
+            areas: &[],
         };
         let m = match_shapes(v, v, &MatchParams::default());
         assert_eq!(m.matches.len(), 6);
@@ -502,8 +603,8 @@ mod tests {
             let (lq, lt) = (layout(mq), layout(mt));
             let weights: Vec<f64> = (0..mq).map(|_| rng.random_range(0.0..2.0)).collect();
             let params = MatchParams::default();
-            let q = ShapeView { descriptors: &dq, layout: &lq };
-            let t = ShapeView { descriptors: &dt, layout: &lt };
+            let q = ShapeView { descriptors: &dq, layout: &lq, areas: &[] };
+            let t = ShapeView { descriptors: &dt, layout: &lt, areas: &[] };
             let m = match_weighted(q, t, &params, &weights);
             let d = distances(&dq, &dt);
             let bound = score_bound(mq, mt, &d, &params, &weights);
@@ -521,10 +622,12 @@ mod tests {
             ShapeView {
                 descriptors: &ds,
                 layout: &l,
+                areas: &[],
             },
             ShapeView {
                 descriptors: &target,
                 layout: &lt,
+                areas: &[],
             },
         );
         // parts 0 and 1 match exactly, 2 and 3 have no partner
@@ -544,10 +647,12 @@ mod tests {
         let e = ShapeView {
             descriptors: &[],
             layout: &[],
+            areas: &[],
         };
         let v = ShapeView {
             descriptors: &ds,
             layout: &l,
+            areas: &[],
         };
         assert_eq!(match_shapes(e, v, &MatchParams::default()).score, 0.0);
         assert_eq!(match_shapes(v, e, &MatchParams::default()).score, 0.0);

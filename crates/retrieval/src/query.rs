@@ -68,21 +68,17 @@ pub fn idf_weights(
 /// (when it is not cut by `k`) was not a candidate.
 pub fn rank(
     reader: &IndexReader<DIM>,
-    descriptors: &[Descriptor],
-    layout: &[f32],
+    query: ShapeView,
     k: usize,
     params: &MatchParams,
 ) -> Result<Vec<Ranked>, IndexError> {
-    let neighbours = reader.nearest_components_batch(descriptors, CANDIDATES_PER_COMPONENT)?;
+    let neighbours =
+        reader.nearest_components_batch(query.descriptors, CANDIDATES_PER_COMPONENT)?;
     let votes = votes(&neighbours, params);
     let weights = if params.idf {
         idf_weights(&neighbours, reader.shapes().len(), params)
     } else {
         Vec::new()
-    };
-    let query = ShapeView {
-        descriptors,
-        layout,
     };
     // the best-voted candidates are matched; the others follow by vote with score 0
     let mut by_vote: Vec<(ShapeId, f64)> = votes.into_iter().collect();
@@ -130,6 +126,7 @@ fn match_candidates(
         id: ShapeId,
         rec: &'a keycomp_index::ShapeRecord<DIM>,
         descriptors: Vec<Descriptor>,
+        areas: Vec<f32>,
         d: Vec<f32>,
         bound: f64,
     }
@@ -142,10 +139,12 @@ fn match_candidates(
                 rec.components.iter().map(|c| c.descriptor).collect();
             let d = crate::distances(query.descriptors, &descriptors);
             let bound = crate::score_bound(mq, descriptors.len(), &d, params, weights);
+            let areas = record_areas(rec, params);
             Some(Candidate {
                 id,
                 rec,
                 descriptors,
+                areas,
                 d,
                 bound,
             })
@@ -174,6 +173,7 @@ fn match_candidates(
                     ShapeView {
                         descriptors: &c.descriptors,
                         layout: &c.rec.layout,
+                        areas: &c.areas,
                     },
                     &c.d,
                     params,
@@ -191,6 +191,24 @@ fn match_candidates(
         next = end;
     }
     ranked
+}
+
+/// The part areas of an indexed shape as [`ShapeView::areas`] wants them: area fractions in
+/// scale-free indexes (every shape has unit area there), times the shape's surface area in
+/// file units ([`MatchParams::file_units`]); empty when the area check is off.
+pub fn record_areas(rec: &keycomp_index::ShapeRecord<DIM>, params: &MatchParams) -> Vec<f32> {
+    if params.area_tolerance <= 1.0 {
+        return Vec::new();
+    }
+    let unit = if params.file_units {
+        rec.surface_area as f32
+    } else {
+        1.0
+    };
+    rec.components
+        .iter()
+        .map(|c| c.area_fraction * unit)
+        .collect()
 }
 
 /// Candidate shapes and their votes: for each query part, the similarity

@@ -3,7 +3,7 @@
 
 use keycomp_describe::{DIM, Descriptor};
 use keycomp_index::{ComponentRecord, ContentHash, IndexReader, IndexWriter, ShapeRecord};
-use keycomp_retrieval::{MatchParams, rank};
+use keycomp_retrieval::{MatchParams, ShapeView, rank, record_areas};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -75,10 +75,16 @@ fn pruned_top_k_equals_the_full_ranking() {
             .iter()
             .map(|c| jitter(&mut rng, &c.descriptor, 0.03))
             .collect();
-        let full = rank(&reader, &descs, &src.layout, 10_000, &params).expect("rank");
+        let areas = record_areas(&src, &params);
+        let view = ShapeView {
+            descriptors: &descs,
+            layout: &src.layout,
+            areas: &areas,
+        };
+        let full = rank(&reader, view, 10_000, &params).expect("rank");
         assert!(full.len() > 10, "more candidates than the largest k");
         for k in [1, 3, 10] {
-            let top = rank(&reader, &descs, &src.layout, k, &params).expect("rank");
+            let top = rank(&reader, view, k, &params).expect("rank");
             assert_eq!(top.len(), k);
             for (a, b) in top.iter().zip(&full) {
                 assert_eq!(a.id, b.id, "query {q}, k {k}");
