@@ -128,15 +128,60 @@ fn kmeans(points: &impl Points, d: usize, members: &[u32], k: usize) -> Vec<f32>
     centroids
 }
 
+/// Where a shape's descriptors come from, as the search cache identifies them: a segment (its
+/// number, length and checksum: segments are immutable) and the record's position in it.
+/// Items are the shapes' components, shape after shape, in the order the caller lists them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub(crate) struct Origin {
+    /// The segment's number, length and checksum.
+    pub segment: (u64, u64, u64),
+    /// The record's position in the segment.
+    pub position: u32,
+    /// The shape's components (its items).
+    pub components: u32,
+}
+
+/// The cells of one segment's records, as a cache file holds them.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct SegmentCells {
+    /// The segment's number, length and checksum.
+    segment: (u64, u64, u64),
+    /// Positions in the segment of the records held, increasing.
+    positions: Vec<u32>,
+    /// Per record held, its first entry in `cells`; one more entry closes the last.
+    starts: Vec<u32>,
+    /// Global fine cell of each component of each record held.
+    cells: Vec<u32>,
+}
+
 /// What a cache file holds.
 #[derive(serde::Serialize, serde::Deserialize)]
 struct Stored {
+    /// The snapshot key the cache was written for (equal: nothing to update).
     key: u64,
     d: u32,
+    /// Items the centroids were fitted on.
+    trained: u64,
     coarse: Vec<f32>,
     fine: Vec<Vec<f32>>,
-    cell: Vec<u32>,
+    segments: Vec<SegmentCells>,
 }
+
+/// An inverted file read from a cache file (see [`Ivf::from_cache`]).
+pub(crate) struct FromCache {
+    /// The inverted file of the current items.
+    pub ivf: Ivf,
+    /// Whether the cache was written for exactly these items (else it is worth rewriting).
+    pub exact: bool,
+    /// Items of records the cache did not hold, put in their nearest cells.
+    pub assigned: usize,
+}
+
+/// A cache whose centroids were fitted on `trained` items is extended (new items put in their
+/// nearest cells) only while the items number between `trained / GROWTH` and
+/// `trained × GROWTH`; beyond, cells are too crowded or too sparse and the inverted file is
+/// built again.
+pub(crate) const GROWTH: usize = 2;
 
 /// Keeps the `n` smallest elements of `v` by `cmp` (a total order), in no particular order.
 fn keep_smallest<T>(v: &mut Vec<T>, n: usize, cmp: impl FnMut(&T, &T) -> std::cmp::Ordering) {
@@ -162,6 +207,8 @@ pub(crate) struct Ivf {
     items: Vec<u32>,
     /// The descriptors of `items`, in the same order, flat.
     data: Vec<f32>,
+    /// Items the centroids were fitted on.
+    trained: usize,
 }
 
 impl Ivf {
@@ -205,8 +252,38 @@ impl Ivf {
             base += (centroids.len() / d) as u32;
             fine.push(centroids);
         }
-        Ivf::from_parts(points, d, coarse, fine, &cell)
+        Ivf::from_parts(points, d, coarse, fine, &cell, n)
             .expect("cells computed from the centroids are in range")
+    }
+
+    /// The global fine cell nearest `p`: in the nearest coarse cell that has fine cells, the
+    /// nearest fine centroid (fine cells numbered coarse cell by coarse cell).
+    fn assign(&self, p: &[f32]) -> u32 {
+        let d = self.d;
+        let mut best = (f32::INFINITY, 0usize);
+        for (i, c) in self.coarse.chunks_exact(d).enumerate() {
+            let dist = distance_sq(c, p);
+            if !self.fine[i].is_empty() && dist < best.0 {
+                best = (dist, i);
+            }
+        }
+        let base: usize = self.fine[..best.1].iter().map(|f| f.len() / d).sum();
+        (base + nearest(&self.fine[best.1], d, p)) as u32
+    }
+
+    /// Each item's global fine cell.
+    fn cells(&self) -> Vec<u32> {
+        let mut cell = vec![0u32; self.items.len()];
+        let mut g = 0u32;
+        for ranges in &self.ranges {
+            for &(start, end) in ranges {
+                for j in start..end {
+                    cell[self.items[j as usize] as usize] = g;
+                }
+                g += 1;
+            }
+        }
+        cell
     }
 
     /// The inverted file of `points` with these centroids, item `i` in global fine cell
@@ -218,6 +295,7 @@ impl Ivf {
         coarse: Vec<f32>,
         fine: Vec<Vec<f32>>,
         cell: &[u32],
+        trained: usize,
     ) -> Option<Ivf> {
         let n = points.len();
         if d == 0
@@ -263,28 +341,54 @@ impl Ivf {
             ranges,
             items,
             data,
+            trained,
         })
     }
 
-    /// The inverted file as a cache file for the descriptors identified by `key` (the reader's
-    /// key of its snapshot): the centroids and each item's cell, sealed like the index's files.
-    pub(crate) fn to_cache(&self, key: u64) -> Vec<u8> {
-        let mut cell = vec![0u32; self.items.len()];
-        let mut g = 0u32;
-        for ranges in &self.ranges {
-            for &(start, end) in ranges {
-                for j in start..end {
-                    cell[self.items[j as usize] as usize] = g;
-                }
-                g += 1;
-            }
+    /// The inverted file as a cache file for the snapshot identified by `key`, whose items
+    /// come from `origins` (in item order): the centroids and the cell of every item, grouped
+    /// by segment, sealed like the index's files.
+    pub(crate) fn to_cache(&self, key: u64, origins: &[Origin]) -> Vec<u8> {
+        let cell = self.cells();
+        // per segment: (record position, its parts' cells)
+        type Records<'a> = Vec<(u32, &'a [u32])>;
+        let mut by_segment: std::collections::BTreeMap<(u64, u64, u64), Records> =
+            std::collections::BTreeMap::new();
+        let mut first = 0usize;
+        for o in origins {
+            let end = (first + o.components as usize).min(cell.len());
+            by_segment
+                .entry(o.segment)
+                .or_default()
+                .push((o.position, &cell[first..end]));
+            first = end;
         }
+        let segments = by_segment
+            .into_iter()
+            .map(|(segment, mut records)| {
+                records.sort_by_key(|r| r.0);
+                let mut starts = Vec::with_capacity(records.len() + 1);
+                let mut cells = Vec::new();
+                for (_, c) in &records {
+                    starts.push(cells.len() as u32);
+                    cells.extend_from_slice(c);
+                }
+                starts.push(cells.len() as u32);
+                SegmentCells {
+                    segment,
+                    positions: records.iter().map(|r| r.0).collect(),
+                    starts,
+                    cells,
+                }
+            })
+            .collect();
         let stored = Stored {
             key,
             d: self.d as u32,
+            trained: self.trained as u64,
             coarse: self.coarse.clone(),
             fine: self.fine.clone(),
-            cell,
+            segments,
         };
         let payload = bincode::serde::encode_to_vec(&stored, crate::manifest::bincode_config())
             .unwrap_or_default();
@@ -296,16 +400,18 @@ impl Ivf {
         .0
     }
 
-    /// The inverted file of `points` from a cache file's bytes (read from `path`), or `None`
-    /// when the file is damaged, of another format, or made for other descriptors than those
-    /// identified by `key`.
+    /// The inverted file of `points` (items from `origins`, in order) from a cache file's bytes
+    /// (read from `path`), or `None` when the file is damaged or of another format, or when
+    /// the items are too many or too few for its centroids (see [`GROWTH`]). Records the cache
+    /// holds keep their cells; the others' items go to their nearest cells.
     pub(crate) fn from_cache(
         path: &std::path::Path,
         bytes: Vec<u8>,
         key: u64,
         points: &impl Points,
         d: usize,
-    ) -> Option<Ivf> {
+        origins: &[Origin],
+    ) -> Option<FromCache> {
         let opened = crate::file::unseal(
             path,
             bytes,
@@ -313,7 +419,7 @@ impl Ivf {
             crate::FORMAT_VERSION,
         )
         .ok()?;
-        Ivf::from_payload(opened.payload(), key, points, d)
+        Ivf::from_payload(opened.payload(), key, points, d, origins)
     }
 
     /// [`Ivf::from_cache`] on a cache file's payload (its footer and checksum already checked).
@@ -322,12 +428,65 @@ impl Ivf {
         key: u64,
         points: &impl Points,
         d: usize,
-    ) -> Option<Ivf> {
+        origins: &[Origin],
+    ) -> Option<FromCache> {
         let (stored, _): (Stored, usize) = crate::manifest::decode_bounded(payload).ok()?;
-        if stored.key != key || stored.d as usize != d {
+        let n = points.len();
+        let trained = usize::try_from(stored.trained).ok()?;
+        if stored.d as usize != d
+            || n > trained.saturating_mul(GROWTH)
+            || n.saturating_mul(GROWTH) < trained
+        {
             return None;
         }
-        Ivf::from_parts(points, d, stored.coarse, stored.fine, &stored.cell)
+        // the centroids alone, to assign the items the cache does not hold
+        let mut ivf = Ivf::from_parts(
+            &Flat { data: &[], d },
+            d,
+            stored.coarse,
+            stored.fine,
+            &[],
+            trained,
+        )?;
+        let segments: std::collections::HashMap<(u64, u64, u64), &SegmentCells> =
+            stored.segments.iter().map(|s| (s.segment, s)).collect();
+        let mut cell = Vec::with_capacity(n);
+        let mut fresh: Vec<u32> = Vec::new();
+        for o in origins {
+            let held = segments.get(&o.segment).and_then(|s| {
+                let i = s.positions.binary_search(&o.position).ok()?;
+                let (a, b) = (*s.starts.get(i)? as usize, *s.starts.get(i + 1)? as usize);
+                s.cells.get(a..b)
+            });
+            match held {
+                Some(c) if c.len() == o.components as usize => cell.extend_from_slice(c),
+                _ => {
+                    for _ in 0..o.components {
+                        fresh.push(u32::try_from(cell.len()).ok()?);
+                        cell.push(u32::MAX);
+                    }
+                }
+            }
+        }
+        if cell.len() != n {
+            return None;
+        }
+        let cells: Vec<u32> = fresh
+            .par_iter()
+            .map(|&i| ivf.assign(points.point(i)))
+            .collect();
+        for (&i, c) in fresh.iter().zip(cells) {
+            cell[i as usize] = c;
+        }
+        let assigned = fresh.len();
+        let coarse = std::mem::take(&mut ivf.coarse);
+        let fine = std::mem::take(&mut ivf.fine);
+        let ivf = Ivf::from_parts(points, d, coarse, fine, &cell, trained)?;
+        Some(FromCache {
+            ivf,
+            exact: stored.key == key && assigned == 0,
+            assigned,
+        })
     }
 
     /// About the `k` nearest items to `q` (see the module documentation), nearest first, with
@@ -440,8 +599,23 @@ mod tests {
         assert!(hits as f64 >= 0.9 * total as f64, "recall {hits}/{total}");
     }
 
-    /// A cache file gives back the same inverted file; another key, a flipped byte, a
-    /// truncated file or cells out of range give none (the reader then builds it).
+    /// `shapes` shapes of `per` components each, in two segments.
+    fn origins(shapes: u32, per: u32) -> Vec<Origin> {
+        (0..shapes)
+            .map(|i| Origin {
+                segment: if i < shapes / 2 {
+                    (1, 100, 7)
+                } else {
+                    (2, 200, 9)
+                },
+                position: i % (shapes / 2),
+                components: per,
+            })
+            .collect()
+    }
+
+    /// A cache file gives back the same inverted file; a flipped byte, a truncated file, cells
+    /// out of range or too few give none (the reader then builds it).
     #[test]
     fn cache_round_trip_and_damage() {
         let d = 8;
@@ -451,40 +625,122 @@ mod tests {
         let ivf = Ivf::build(&flat, d);
         let key = 0x5eed_cafe;
         let path = std::path::Path::new("SEARCH-CACHE");
-        let bytes = ivf.to_cache(key);
-        assert_eq!(
-            Ivf::from_cache(path, bytes.clone(), key, &flat, d).as_ref(),
-            Some(&ivf)
-        );
-        assert!(Ivf::from_cache(path, bytes.clone(), key ^ 1, &flat, d).is_none());
+        let origins = origins(500, 10);
+        let bytes = ivf.to_cache(key, &origins);
+        let back = Ivf::from_cache(path, bytes.clone(), key, &flat, d, &origins).expect("read");
+        assert_eq!(back.ivf, ivf);
+        assert!(back.exact);
+        assert_eq!(back.assigned, 0);
+        // another snapshot key: the same cells, but the cache is worth rewriting
+        let other =
+            Ivf::from_cache(path, bytes.clone(), key ^ 1, &flat, d, &origins).expect("read");
+        assert_eq!(other.ivf, ivf);
+        assert!(!other.exact);
         for at in [0, bytes.len() / 3, bytes.len() / 2, bytes.len() - 40] {
             let mut bad = bytes.clone();
             bad[at] ^= 0x5a;
             assert!(
-                Ivf::from_cache(path, bad, key, &flat, d).is_none(),
+                Ivf::from_cache(path, bad, key, &flat, d, &origins).is_none(),
                 "byte {at}"
             );
         }
-        assert!(Ivf::from_cache(path, bytes[..bytes.len() / 2].to_vec(), key, &flat, d).is_none());
-        // well sealed, but a cell beyond the centroids, or fewer cells than points
-        for cell in [vec![u32::MAX; 5_000], vec![0; 10]] {
-            let stored = Stored {
+        assert!(
+            Ivf::from_cache(
+                path,
+                bytes[..bytes.len() / 2].to_vec(),
                 key,
-                d: d as u32,
-                coarse: ivf.coarse.clone(),
-                fine: ivf.fine.clone(),
-                cell,
-            };
-            let payload = bincode::serde::encode_to_vec(&stored, crate::manifest::bincode_config())
+                &flat,
+                d,
+                &origins
+            )
+            .is_none()
+        );
+        // well sealed, but a cell beyond the centroids, or more items listed than points
+        let seal = |stored: &Stored| {
+            let payload = bincode::serde::encode_to_vec(stored, crate::manifest::bincode_config())
                 .expect("encode");
-            let sealed = crate::file::seal(
+            crate::file::seal(
                 payload,
                 crate::file::KIND_SEARCH_CACHE,
                 crate::FORMAT_VERSION,
             )
-            .0;
-            assert!(Ivf::from_cache(path, sealed, key, &flat, d).is_none());
+            .0
+        };
+        let stored = Stored {
+            key,
+            d: d as u32,
+            trained: 5_000,
+            coarse: ivf.coarse.clone(),
+            fine: ivf.fine.clone(),
+            segments: vec![SegmentCells {
+                segment: (1, 100, 7),
+                positions: (0..250).collect(),
+                starts: (0..=250).map(|i| i * 10).collect(),
+                cells: vec![u32::MAX; 2_500],
+            }],
+        };
+        assert!(Ivf::from_cache(path, seal(&stored), key, &flat, d, &origins).is_none());
+        assert!(
+            Ivf::from_cache(path, bytes.clone(), key, &flat, d, &self::origins(501, 10)).is_none()
+        );
+    }
+
+    /// Shapes the cache does not hold go to their nearest cells, and are found; removed ones
+    /// are left out; too many new items for the centroids give none.
+    #[test]
+    fn a_cache_is_extended_with_new_shapes() {
+        let d = 8;
+        let mut rng = ChaCha8Rng::seed_from_u64(10);
+        let points: Vec<f32> = (0..6_000 * d).map(|_| rng.random_range(0.0..1.0)).collect();
+        let path = std::path::Path::new("SEARCH-CACHE");
+        // the cache: the first 400 shapes of 10 components
+        let old = Flat {
+            data: &points[..4_000 * d],
+            d,
+        };
+        let old_origins = origins(400, 10);
+        let built = Ivf::build(&old, d);
+        let bytes = built.to_cache(1, &old_origins);
+        // now: shapes 100..400 of the old segments, and 200 more in a third segment
+        let mut now_origins: Vec<Origin> = old_origins[100..].to_vec();
+        now_origins.extend((0..200).map(|i| Origin {
+            segment: (3, 300, 11),
+            position: i,
+            components: 10,
+        }));
+        let now = Flat {
+            data: &points[1_000 * d..],
+            d,
+        };
+        let c = Ivf::from_cache(path, bytes.clone(), 2, &now, d, &now_origins).expect("extended");
+        assert!(!c.exact);
+        assert_eq!(c.assigned, 2_000);
+        // the old items keep their cells
+        let cells = c.ivf.cells();
+        assert_eq!(&cells[..3_000], &built.cells()[1_000..]);
+        // every new item is found by its own descriptor
+        for i in (3_000..5_000u32).step_by(97) {
+            let q = now.point(i);
+            assert_eq!(c.ivf.search(q, 1)[0], (i, 0.0));
         }
+        // rewritten for the new snapshot, it reads back exactly
+        let again = c.ivf.to_cache(2, &now_origins);
+        let back = Ivf::from_cache(path, again, 2, &now, d, &now_origins).expect("read");
+        assert!(back.exact);
+        assert_eq!(back.ivf, c.ivf);
+        // more than GROWTH times the trained items: built again instead
+        let many: Vec<f32> = (0..(GROWTH * 4_000 + 10) * d)
+            .map(|_| rng.random_range(0.0..1.0))
+            .collect();
+        let many_flat = Flat { data: &many, d };
+        let many_origins: Vec<Origin> = (0..(GROWTH * 400 + 1) as u32)
+            .map(|i| Origin {
+                segment: (4, 1, 1),
+                position: i,
+                components: 10,
+            })
+            .collect();
+        assert!(Ivf::from_cache(path, bytes, 3, &many_flat, d, &many_origins).is_none());
     }
 
     #[test]

@@ -52,7 +52,7 @@ pub use error::{CorruptKind, IndexError, Result};
 pub use ivf::distance_sq as squared_distance_fast;
 pub use reader::{
     ComponentMatch, IVF_MIN_COMPONENTS, IndexReader, IndexStats, IndexedShape, SEARCH_CACHE_NAME,
-    SearchMode, squared_distance,
+    SearchMode, SearchSource, squared_distance,
 };
 pub use record::{ComponentRecord, ContentHash, ShapeId, ShapeRecord, canonical_path};
 pub use verify::{VerifyReport, verify};
@@ -108,6 +108,17 @@ pub mod fuzzing {
             .collect()
     }
 
+    /// Where [`cache_points`]'s descriptors come from: 8 shapes of 8 components, one segment.
+    fn cache_origins() -> Vec<crate::ivf::Origin> {
+        (0..8)
+            .map(|position| crate::ivf::Origin {
+                segment: (1, 4096, 0x5eed),
+                position,
+                components: 8,
+            })
+            .collect()
+    }
+
     /// Decodes a search-cache payload (the `SEARCH-CACHE` file without its footer) as a reader
     /// does, for [`cache_points`]'s descriptors; whether it was accepted.
     pub fn decode_search_cache_payload(payload: &[u8]) -> bool {
@@ -116,7 +127,7 @@ pub mod fuzzing {
             data: &points,
             d: 8,
         };
-        crate::ivf::Ivf::from_payload(payload, CACHE_KEY, &flat, 8).is_some()
+        crate::ivf::Ivf::from_payload(payload, CACHE_KEY, &flat, 8, &cache_origins()).is_some()
     }
 
     /// A valid search-cache payload for [`decode_search_cache_payload`] (a fuzzing seed).
@@ -126,7 +137,7 @@ pub mod fuzzing {
             data: &points,
             d: 8,
         };
-        let sealed = crate::ivf::Ivf::build(&flat, 8).to_cache(CACHE_KEY);
+        let sealed = crate::ivf::Ivf::build(&flat, 8).to_cache(CACHE_KEY, &cache_origins());
         sealed[..sealed.len() - crate::file::FOOTER_LEN].to_vec()
     }
 

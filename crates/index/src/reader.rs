@@ -24,9 +24,11 @@
 //!
 //! Neither structure is part of the index on disk: each spans all segments, so every add would
 //! rewrite it whole. The inverted file is cached instead ([`SEARCH_CACHE_NAME`]): the reader
-//! that builds it writes it, keyed by the snapshot's segments and tombstones, and later readers
-//! of the same snapshot read it (`index/README.md`, "Search cache"). Distances are squared
-//! Euclidean, recomputed from the stored descriptors.
+//! that builds it writes it, with each record's cells by segment; later readers of the same
+//! snapshot read it, and readers of a later snapshot (after an add or a remove) update it —
+//! new records' parts go to their nearest cells, removed ones are left out — until the
+//! collection has doubled or halved ([`SearchSource`]; `index/README.md`, "Search cache").
+//! Distances are squared Euclidean, recomputed from the stored descriptors.
 
 use std::num::NonZero;
 use std::path::{Path, PathBuf};
@@ -40,7 +42,7 @@ use kiddo::immutable::float::kdtree::ImmutableKdTree;
 
 use crate::FORMAT_VERSION;
 use crate::error::{IndexError, Result};
-use crate::ivf::Ivf;
+use crate::ivf::{Ivf, Origin};
 use crate::manifest::{Manifest, segment_file_name};
 use crate::record::{ShapeId, ShapeRecord, canonical_path};
 use crate::segment;
@@ -103,6 +105,8 @@ pub struct IndexReader<const D: usize> {
     shapes: Vec<IndexedShape<D>>,
     /// For tree item `i`: (position in `shapes`, component index).
     owners: Vec<(u32, u32)>,
+    /// For each of `shapes`: its segment and position there (the search cache's key).
+    origins: Vec<Origin>,
     search: OnceLock<Search<D>>,
     mode: SearchMode,
     load_time: Duration,
@@ -144,6 +148,24 @@ pub enum SearchMode {
     Approximate,
 }
 
+/// Where a snapshot's search structure came from ([`IndexReader::search_source`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SearchSource {
+    /// Built from the descriptors: the exact KD-tree, or an inverted file without a usable
+    /// search cache.
+    Built,
+    /// The inverted file read from the search cache written for this very snapshot.
+    Cache,
+    /// The inverted file read from a search cache written for an earlier snapshot: the
+    /// `assigned` components of shapes added since were put in their nearest cells (no new
+    /// k-means), those of shapes removed since left out. The cache is rewritten for this
+    /// snapshot.
+    CacheUpdated {
+        /// Components put in their nearest cells.
+        assigned: usize,
+    },
+}
+
 /// The search structure, built on first use.
 struct Search<const D: usize> {
     /// `None` when there is no component, when the inverted file is used, or when building the
@@ -151,8 +173,8 @@ struct Search<const D: usize> {
     tree: Option<Tree<D>>,
     /// The inverted file, when the mode asks for it.
     ivf: Option<Ivf>,
-    /// Whether the inverted file was read from the search cache rather than built.
-    cached: bool,
+    /// Where the structure came from.
+    source: SearchSource,
     build_time: Duration,
 }
 
@@ -215,19 +237,27 @@ impl<const D: usize> IndexReader<D> {
             .par_iter()
             .map(|entry| segment::read::<D>(dir, &manifest, entry))
             .collect();
-        let mut shapes = Vec::new();
+        let mut live = Vec::new();
         let mut bytes = 0u64;
         for (entry, seg) in manifest.segments.iter().zip(segments) {
             let seg = seg?;
             bytes += entry.len;
-            for (c, record) in seg.head.catalogue.into_iter().zip(seg.records) {
+            for (position, (c, record)) in
+                seg.head.catalogue.into_iter().zip(seg.records).enumerate()
+            {
                 if !manifest.is_tombstoned(c.id) {
-                    shapes.push(IndexedShape { id: c.id, record });
+                    let origin = Origin {
+                        segment: (entry.number, entry.len, entry.checksum),
+                        position: position as u32,
+                        components: record.components.len() as u32,
+                    };
+                    live.push((IndexedShape { id: c.id, record }, origin));
                 }
             }
         }
         bytes += manifest.to_bytes().map(|b| b.len() as u64).unwrap_or(0);
-        shapes.sort_by_key(|s| s.id);
+        live.sort_by_key(|s| s.0.id);
+        let (shapes, origins): (Vec<IndexedShape<D>>, Vec<Origin>) = live.into_iter().unzip();
         let total: usize = shapes.iter().map(|s| s.record.components.len()).sum();
         if u32::try_from(total).is_err() || u32::try_from(shapes.len()).is_err() {
             return Err(IndexError::InvalidQuery {
@@ -246,6 +276,7 @@ impl<const D: usize> IndexReader<D> {
             bytes,
             shapes,
             owners,
+            origins,
             search: OnceLock::new(),
             mode: SearchMode::Auto,
             load_time: start.elapsed(),
@@ -276,9 +307,14 @@ impl<const D: usize> IndexReader<D> {
     }
 
     /// Whether the search structure (building it if needed) was read from the index's search
-    /// cache ([`SEARCH_CACHE_NAME`]) instead of being built.
+    /// cache ([`SEARCH_CACHE_NAME`]), as it was or updated, instead of being built.
     pub fn search_was_cached(&self) -> bool {
-        self.search().cached
+        self.search_source() != SearchSource::Built
+    }
+
+    /// Where the search structure (building it if needed) came from.
+    pub fn search_source(&self) -> SearchSource {
+        self.search().source
     }
 
     /// What identifies the live descriptors of this snapshot: a hash of the descriptor length,
@@ -299,10 +335,12 @@ impl<const D: usize> IndexReader<D> {
         h.digest()
     }
 
-    /// The inverted file of the descriptors `flat`: read from the search cache when it was
-    /// made for this snapshot, else built and written there for the next reader (best
-    /// effort: a read-only index folder, a damaged or stale cache only cost a build).
-    fn inverted_file(&self) -> (Ivf, bool) {
+    /// The inverted file of the live descriptors: read from the search cache when it fits this
+    /// snapshot (records of segments added since put in their nearest cells, those removed
+    /// since left out; the cache is then rewritten for this snapshot), else built and written
+    /// there for the next reader (best effort: a read-only index folder, a damaged or stale
+    /// cache only cost a build).
+    fn inverted_file(&self) -> (Ivf, SearchSource) {
         let live = Live {
             shapes: &self.shapes,
             owners: &self.owners,
@@ -310,13 +348,30 @@ impl<const D: usize> IndexReader<D> {
         let key = self.snapshot_key();
         let path = self.dir.join(SEARCH_CACHE_NAME);
         if let Ok(bytes) = crate::file::read_all(&path)
-            && let Some(ivf) = Ivf::from_cache(&path, bytes, key, &live, D)
+            && let Some(c) = Ivf::from_cache(&path, bytes, key, &live, D, &self.origins)
         {
-            return (ivf, true);
+            if c.exact {
+                return (c.ivf, SearchSource::Cache);
+            }
+            let _ = crate::file::write_atomic(
+                &self.dir,
+                SEARCH_CACHE_NAME,
+                &c.ivf.to_cache(key, &self.origins),
+            );
+            return (
+                c.ivf,
+                SearchSource::CacheUpdated {
+                    assigned: c.assigned,
+                },
+            );
         }
         let ivf = Ivf::build(&live, D);
-        let _ = crate::file::write_atomic(&self.dir, SEARCH_CACHE_NAME, &ivf.to_cache(key));
-        (ivf, false)
+        let _ = crate::file::write_atomic(
+            &self.dir,
+            SEARCH_CACHE_NAME,
+            &ivf.to_cache(key, &self.origins),
+        );
+        (ivf, SearchSource::Built)
     }
 
     /// Bytes held by the search structure (building it if needed): the inverted file's, or
@@ -334,11 +389,11 @@ impl<const D: usize> IndexReader<D> {
         self.search.get_or_init(|| {
             let start = Instant::now();
             if self.search_is_approximate() {
-                let (ivf, cached) = self.inverted_file();
+                let (ivf, source) = self.inverted_file();
                 return Search {
                     tree: None,
                     ivf: Some(ivf),
-                    cached,
+                    source,
                     build_time: start.elapsed(),
                 };
             }
@@ -358,7 +413,7 @@ impl<const D: usize> IndexReader<D> {
             Search {
                 tree,
                 ivf: None,
-                cached: false,
+                source: SearchSource::Built,
                 build_time: start.elapsed(),
             }
         })

@@ -1,8 +1,11 @@
 //! The inverted file's cache: the first approximate search of a snapshot writes it, the next
-//! reader of the same descriptors reads it and answers the same; an add makes it stale (then
-//! rebuilt), and a damaged one is rebuilt.
+//! reader of the same descriptors reads it and answers the same; after an add or a remove it
+//! is updated (new shapes put in their nearest cells) rather than rebuilt, until the collection
+//! has grown too much for its centroids; a damaged one is rebuilt.
 
-use keycomp_index::{IndexReader, IndexWriter, SEARCH_CACHE_NAME, SearchMode, synthetic, verify};
+use keycomp_index::{
+    IndexReader, IndexWriter, SEARCH_CACHE_NAME, SearchMode, SearchSource, synthetic, verify,
+};
 
 const D: usize = 8;
 
@@ -44,11 +47,36 @@ fn the_cache_is_written_reused_and_rebuilt_when_stale_or_damaged() {
     let report = verify::<D>(dir).expect("verify");
     assert!(report.is_ok() && report.leftovers.is_empty(), "{report:?}");
 
-    // stale after an add: rebuilt, and the new snapshot's answers
+    // after an add: updated, the new shapes' components put in their nearest cells, and each
+    // found by its own descriptor; the next reader reads the updated cache as it is
     w.add_batch(synthetic::records(4, 400..450)).expect("add");
     let third = open(dir);
-    assert!(!third.search_was_cached());
-    assert!(open(dir).search_was_cached());
+    let added: usize = third.shapes()[400..]
+        .iter()
+        .map(|s| s.record.components.len())
+        .sum();
+    assert_eq!(
+        third.search_source(),
+        SearchSource::CacheUpdated { assigned: added }
+    );
+    for s in &third.shapes()[400..] {
+        let q = s.record.components[0].descriptor;
+        let m = third.nearest_components(&q, 1).expect("search")[0];
+        assert_eq!((m.shape, m.distance_sq), (s.id, 0.0));
+    }
+    assert_eq!(open(dir).search_source(), SearchSource::Cache);
+    // after a remove: updated, nothing assigned
+    let gone = third.shapes()[3].record.canonical_path.clone();
+    assert_eq!(w.remove(&[gone]).expect("remove"), 1);
+    assert_eq!(
+        open(dir).search_source(),
+        SearchSource::CacheUpdated { assigned: 0 }
+    );
+    // more than twice the items the centroids were fitted on: built again
+    w.add_batch(synthetic::records(4, 450..1300)).expect("add");
+    assert_eq!(open(dir).search_source(), SearchSource::Built);
+    let third = open(dir);
+    assert_eq!(third.search_source(), SearchSource::Cache);
 
     // damaged: rebuilt with the same answers as a fresh build
     let path = dir.join(SEARCH_CACHE_NAME);
