@@ -54,7 +54,7 @@ enum Command {
     /// Render a shaded PNG of a mesh, with key-components, response or keypoints coloured.
     #[command(after_help = render_cmd::EXAMPLES)]
     Render(render_cmd::Args),
-    /// Match two meshes part to part: key-components paired by descriptor, checked for layout.
+    /// Match two meshes part to part: key-components paired by descriptor, checked for layout and size.
     #[command(name = "match", after_help = match_cmd::EXAMPLES)]
     Match(match_cmd::Args),
     /// Benchmarks that produce the tables in BENCHMARKS.md.

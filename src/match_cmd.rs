@@ -124,7 +124,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
         )?;
         writeln!(
             s,
-            "score {:.3} ({} matched pairs, {} rejected by the layout check{})",
+            "score {:.3} ({} matched pairs, {} rejected by the layout and size checks{})",
             m.score,
             m.matches.len(),
             m.rejected,

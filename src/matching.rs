@@ -52,7 +52,7 @@ pub struct MatchResult {
     pub score: f64,
     /// Estimated B/A length ratio, when three or more matches allowed an estimate.
     pub scale: Option<f64>,
-    /// Pairs dropped by the layout check.
+    /// Pairs dropped by the layout and size checks.
     pub rejected: usize,
     /// The kept pairs, ordered by A's part.
     pub matches: Vec<PairMatch>,
