@@ -157,6 +157,14 @@ pub struct Args {
     /// [default: the matching's].
     #[arg(long, value_name = "T")]
     pub area_tolerance: Option<f64>,
+    /// Ablation: the layout check's tolerance (`MatchParams::layout_tolerance`, ≥ 1)
+    /// [default: the matching's].
+    #[arg(long, value_name = "T")]
+    pub layout_tolerance: Option<f64>,
+    /// Ablation: the descriptor distance at which similarity reaches 0
+    /// (`MatchParams::max_distance`) [default: the matching's].
+    #[arg(long, value_name = "D")]
+    pub max_distance: Option<f32>,
     /// Ablation: weigh query parts by their inverse frequency in the index
     /// (`MatchParams::idf`).
     #[arg(long)]
@@ -811,8 +819,26 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
         area_tolerance: args
             .area_tolerance
             .unwrap_or(MatchParams::default().area_tolerance),
+        layout_tolerance: args
+            .layout_tolerance
+            .unwrap_or(MatchParams::default().layout_tolerance),
+        max_distance: args
+            .max_distance
+            .unwrap_or(MatchParams::default().max_distance),
         ..MatchParams::default()
     };
+    if !(match_params.layout_tolerance.is_finite() && match_params.layout_tolerance >= 1.0) {
+        bail!(
+            "--layout-tolerance: expected a factor ≥ 1, got {}",
+            match_params.layout_tolerance
+        );
+    }
+    if !(match_params.max_distance.is_finite() && match_params.max_distance > 0.0) {
+        bail!(
+            "--max-distance: expected a positive distance, got {}",
+            match_params.max_distance
+        );
+    }
     if !(match_params.area_tolerance.is_finite() && match_params.area_tolerance >= 0.0) {
         bail!(
             "--area-tolerance: expected a factor ≥ 1, or 0 for no check, got {}",

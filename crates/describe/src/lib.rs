@@ -182,7 +182,7 @@ pub const HISTOGRAMS: [(usize, usize); 8] = [
 pub const SCALAR_WEIGHT: f32 = 0.5;
 
 /// Weight of entry 31 in file units, `ln(radius)`: parts of neighbouring levels (radii 1.5
-/// apart) differ there by 0.3, against the 0.8 at which matching similarity reaches 0.
+/// apart) differ there by 0.3, against the 0.7 at which matching similarity reaches 0.
 pub const SIZE_WEIGHT: f32 = 0.75;
 
 /// Random point pairs drawn per part for the pair histograms (bins 48–63).

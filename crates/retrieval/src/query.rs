@@ -250,7 +250,10 @@ mod tests {
 
     #[test]
     fn votes_sum_each_parts_best_similarity_per_shape() {
-        let params = MatchParams::default(); // similarity 1 − d/0.8
+        let params = MatchParams {
+            max_distance: 0.8, // similarity 1 − d/0.8
+            ..MatchParams::default()
+        };
         let neighbours = vec![
             // part 0: shape 1 twice (the nearer counts), shape 2 beyond the match distance
             vec![nb(1, 0.2), nb(1, 0.4), nb(2, 0.9)],
@@ -265,7 +268,10 @@ mod tests {
 
     #[test]
     fn idf_weighs_rare_parts_more() {
-        let params = MatchParams::default(); // "near": within 0.4
+        let params = MatchParams {
+            max_distance: 0.8, // "near": within 0.4
+            ..MatchParams::default()
+        };
         let common: Vec<ComponentMatch> = (0..10).map(|s| nb(s, 0.1)).collect();
         let rare = vec![nb(3, 0.1), nb(4, 0.5), nb(5, 0.6)];
         let w = idf_weights(&[common, rare], 100, &params);
