@@ -51,9 +51,9 @@ use serde::{Deserialize, Serialize};
 pub struct MatchParams {
     /// Descriptor distance at which similarity reaches 0 (default 0.7). Lowering it makes
     /// matching stricter. On SHREC'07 Watertight and TOSCA fragments (scale-free), 0.7 raised
-    /// mAP on every fragment kind against 0.8 (Watertight balls 0.607 to 0.632, TOSCA balls
-    /// 0.722 to 0.797) for whole-shape mAP 0.006 lower; 0.6 and 0.65 were stricter still and
-    /// mixed (BENCHMARKS.md, *Matching*).
+    /// mAP against 0.8 on every fragment kind but Watertight scans (Watertight balls 0.607 to
+    /// 0.632, TOSCA balls 0.722 to 0.797; scans 0.431 to 0.427) for whole-shape mAP 0.006
+    /// lower; 0.6 and 0.65 were stricter still and mixed (BENCHMARKS.md, *Matching*).
     pub max_distance: f32,
     /// Largest factor by which two layout distances may disagree after scaling (default 1.5).
     /// Raising it tolerates more deformation and worse detections; 1 demands exact agreement.
