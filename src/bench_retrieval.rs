@@ -813,20 +813,20 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
         };
     }
     describe.complete_only = args.complete_only;
-    let match_params = MatchParams {
+    let mut match_params = MatchParams {
         idf: args.idf,
         file_units: matches!(describe.units, keycomp_describe::Units::File { .. }),
-        area_tolerance: args
-            .area_tolerance
-            .unwrap_or(MatchParams::default().area_tolerance),
-        layout_tolerance: args
-            .layout_tolerance
-            .unwrap_or(MatchParams::default().layout_tolerance),
-        max_distance: args
-            .max_distance
-            .unwrap_or(MatchParams::default().max_distance),
         ..MatchParams::default()
     };
+    if let Some(t) = args.area_tolerance {
+        match_params.area_tolerance = t;
+    }
+    if let Some(t) = args.layout_tolerance {
+        match_params.layout_tolerance = t;
+    }
+    if let Some(d) = args.max_distance {
+        match_params.max_distance = d;
+    }
     if !(match_params.layout_tolerance.is_finite() && match_params.layout_tolerance >= 1.0) {
         bail!(
             "--layout-tolerance: expected a factor ≥ 1, got {}",
