@@ -193,6 +193,19 @@ impl Analysed {
             .collect()
     }
 
+    /// Its parts' centre positions as `keycomp_retrieval::ShapeView::centres` wants them;
+    /// empty when `params` has the pose check off.
+    pub fn centres(&self, params: &keycomp_retrieval::MatchParams) -> Vec<[f32; 3]> {
+        if params.pose_weight <= 0.0 {
+            return Vec::new();
+        }
+        self.description
+            .components
+            .iter()
+            .map(|c| c.position)
+            .collect()
+    }
+
     /// The matching parameters for shapes described like this one: `base` with
     /// `file_units` set from [`Analysed::units`].
     pub fn match_params(
@@ -216,16 +229,19 @@ impl Analysed {
         let (da, la) = self.view();
         let (db, lb) = other.view();
         let (aa, ab) = (self.areas(&params), other.areas(&params));
+        let (ca, cb) = (self.centres(&params), other.centres(&params));
         keycomp_retrieval::match_shapes(
             keycomp_retrieval::ShapeView {
                 descriptors: &da,
                 layout: la,
                 areas: &aa,
+                centres: &ca,
             },
             keycomp_retrieval::ShapeView {
                 descriptors: &db,
                 layout: lb,
                 areas: &ab,
+                centres: &cb,
             },
             &params,
         )
@@ -250,6 +266,7 @@ impl Analysed {
                     centre_vertex: c.center,
                     area_fraction: c.area as f32,
                     keypoint_count: c.keypoints as u32,
+                    centre: Some(c.position),
                 })
                 .collect(),
             layout: self.description.layout.clone(),

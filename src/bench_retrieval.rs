@@ -165,6 +165,14 @@ pub struct Args {
     /// (`MatchParams::max_distance`) [default: the matching's].
     #[arg(long, value_name = "D")]
     pub max_distance: Option<f32>,
+    /// Ablation: how much the pose check weighs (`MatchParams::pose_weight`, in [0, 1])
+    /// [default: the matching's].
+    #[arg(long, value_name = "W")]
+    pub pose_weight: Option<f64>,
+    /// Ablation: the pose check's tolerance (`MatchParams::pose_tolerance`, ≥ 1) [default: the
+    /// matching's].
+    #[arg(long, value_name = "T")]
+    pub pose_tolerance: Option<f64>,
     /// Ablation: weigh query parts by their inverse frequency in the index
     /// (`MatchParams::idf`).
     #[arg(long)]
@@ -720,10 +728,12 @@ fn kc_ranking(
         return Ok(Vec::new());
     }
     let areas = keycomp_retrieval::record_areas(record, match_params);
+    let centres = keycomp_retrieval::record_centres(record, match_params);
     let view = keycomp_retrieval::ShapeView {
         descriptors: &descs,
         layout: &record.layout,
         areas: &areas,
+        centres: &centres,
     };
     let ranked = rank(reader, view, index_of.len(), match_params)?;
     Ok(ranked
@@ -826,6 +836,18 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
     }
     if let Some(d) = args.max_distance {
         match_params.max_distance = d;
+    }
+    if let Some(w) = args.pose_weight {
+        if !(0.0..=1.0).contains(&w) {
+            bail!("--pose-weight: expected a weight between 0 and 1, got {w}");
+        }
+        match_params.pose_weight = w;
+    }
+    if let Some(t) = args.pose_tolerance {
+        if !(t.is_finite() && t >= 1.0) {
+            bail!("--pose-tolerance: expected a factor ≥ 1, got {t}");
+        }
+        match_params.pose_tolerance = t;
     }
     if !(match_params.layout_tolerance.is_finite() && match_params.layout_tolerance >= 1.0) {
         bail!(

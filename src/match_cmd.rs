@@ -31,6 +31,10 @@ pub struct Args {
     pub detect: DetectArgs,
     #[command(flatten)]
     pub units: UnitsArgs,
+    /// Weight of the pose check, 0–1: above 0, pairs of matched parts whose straight-line
+    /// distances disagree (another pose) lower the score. 0 (default): no pose check.
+    #[arg(long, value_name = "W", default_value_t = 0.0, value_parser = crate::output::unit_weight)]
+    pub pose: f64,
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
@@ -81,6 +85,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
     let options = MatchOptions {
         detect: args.detect.explicit(),
         units: args.units.units()?.unwrap_or_default(),
+        pose_weight: args.pose,
     };
     let (a, b, m) = match_files(&args.a, &args.b, &options)?;
     let match_ms = m.timings_ms.matching;
@@ -124,12 +129,15 @@ pub fn run(args: Args) -> Result<ExitCode> {
         )?;
         writeln!(
             s,
-            "score {:.3} ({} matched pairs, {} rejected by the layout and size checks{})",
+            "score {:.3} ({} matched pairs, {} rejected by the layout and size checks{}{})",
             m.score,
             m.matches.len(),
             m.rejected,
             m.scale
                 .map(|x| format!(", length ratio B/A {x:.3}"))
+                .unwrap_or_default(),
+            m.pose
+                .map(|x| format!(", pose agreement {x:.2}"))
                 .unwrap_or_default()
         )?;
         if !m.matches.is_empty() {

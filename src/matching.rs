@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use keycomp_components::DetectParams;
 use keycomp_mesh::read_mesh;
-use keycomp_retrieval::MatchParams;
+pub use keycomp_retrieval::MatchParams;
 use serde::{Deserialize, Serialize};
 
 use crate::collection::Units;
@@ -54,6 +54,9 @@ pub struct MatchResult {
     pub scale: Option<f64>,
     /// Pairs dropped by the layout and size checks.
     pub rejected: usize,
+    /// The pose check's agreement: of the pairs of kept matches it compared, the fraction
+    /// whose straight-line distances agree (`None` when it compared none).
+    pub pose: Option<f64>,
     /// The kept pairs, ordered by A's part.
     pub matches: Vec<PairMatch>,
     /// Where the time went.
@@ -67,12 +70,25 @@ pub struct MatchOptions {
     pub detect: Option<DetectParams>,
     /// Length unit; a file unit not given is the square root of B's area.
     pub units: Units,
+    /// Weight of the pose check (`keycomp_retrieval::MatchParams::pose_weight`, in [0, 1];
+    /// default 0: no pose check).
+    pub pose_weight: f64,
 }
 
 /// Matches two analysed meshes, named `a` and `b` in the result.
 pub fn match_analysed(a: &Analysed, b: &Analysed, names: (&str, &str)) -> MatchResult {
+    match_analysed_with(a, b, names, &MatchParams::default())
+}
+
+/// [`match_analysed`] with other matching parameters (`file_units` is set from the analyses).
+pub fn match_analysed_with(
+    a: &Analysed,
+    b: &Analysed,
+    names: (&str, &str),
+    params: &MatchParams,
+) -> MatchResult {
     let t = Instant::now();
-    let m = a.match_with(b, &MatchParams::default());
+    let m = a.match_with(b, params);
     let matching = t.elapsed().as_secs_f64() * 1e3;
     MatchResult {
         a: names.0.to_string(),
@@ -82,6 +98,7 @@ pub fn match_analysed(a: &Analysed, b: &Analysed, names: (&str, &str)) -> MatchR
         score: m.score,
         scale: m.scale,
         rejected: m.rejected,
+        pose: m.pose,
         matches: m
             .matches
             .iter()
@@ -120,9 +137,24 @@ pub fn match_files(
     b: &Path,
     options: &MatchOptions,
 ) -> Result<(Analysed, Analysed, MatchResult), Error> {
+    if !(0.0..=1.0).contains(&options.pose_weight) {
+        return Err(Error::Invalid(format!(
+            "the pose weight must be between 0 and 1, got {}",
+            options.pose_weight
+        )));
+    }
     let profile = match_profile(options, b)?;
     let (x, y) = rayon::join(|| analyse(a, &profile), || analyse(b, &profile));
     let (x, y) = (x?, y?);
-    let m = match_analysed(&x, &y, (&a.display().to_string(), &b.display().to_string()));
+    let params = MatchParams {
+        pose_weight: options.pose_weight,
+        ..MatchParams::default()
+    };
+    let m = match_analysed_with(
+        &x,
+        &y,
+        (&a.display().to_string(), &b.display().to_string()),
+        &params,
+    );
     Ok((x, y, m))
 }

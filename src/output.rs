@@ -40,6 +40,14 @@ pub fn at_least_one(s: &str) -> Result<usize, String> {
     }
 }
 
+/// Parses a weight in [0, 1] (a clap value parser).
+pub fn unit_weight(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(w) if (0.0..=1.0).contains(&w) => Ok(w),
+        _ => Err(format!("'{s}': expected a number between 0 and 1")),
+    }
+}
+
 /// Writes `bytes` to the file `path` through [`keycomp_mesh::io::output`]: atomically, symbolic
 /// links followed, a FIFO or device written in place, a directory or a missing folder refused.
 pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<()> {

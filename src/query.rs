@@ -27,6 +27,11 @@ pub struct Args {
     /// Number of results.
     #[arg(short = 'k', long = "top", default_value_t = 10, value_parser = crate::output::at_least_one)]
     pub k: usize,
+    /// Weight of the pose check, 0–1: above 0, shapes whose matched parts sit as the query's
+    /// do (the same pose, a fragment's exact source) rank above the same parts in another
+    /// pose. 0 (default) ranks independently of pose, as classes of articulated shapes need.
+    #[arg(long, value_name = "W", default_value_t = 0.0, value_parser = crate::output::unit_weight)]
+    pub pose: f64,
     #[command(flatten)]
     pub detect: DetectArgs,
     /// Print JSON.
@@ -44,7 +49,8 @@ pub fn run(args: Args) -> Result<ExitCode> {
         // before any work: the report's folder must be creatable
         crate::output::check_output_folder(dir)?;
     }
-    let searcher = Searcher::open(&args.index, args.detect.explicit().as_ref())?;
+    let mut searcher = Searcher::open(&args.index, args.detect.explicit().as_ref())?;
+    searcher.set_pose_weight(args.pose)?;
     let reader = searcher.reader();
     let (q, ranked, answer) = searcher.query_full(&args.mesh, args.k)?;
     let QueryTimings {

@@ -81,6 +81,7 @@ pub struct Searcher {
     reader: Reader,
     profile: Profile,
     open_ms: f64,
+    pose_weight: f64,
 }
 
 impl Searcher {
@@ -106,7 +107,23 @@ impl Searcher {
             reader,
             profile,
             open_ms: t.elapsed().as_secs_f64() * 1e3,
+            pose_weight: 0.0,
         })
+    }
+
+    /// Sets how much the pose check weighs in the ranking (`keycomp_retrieval::MatchParams::
+    /// pose_weight`, in [0, 1]; 0, the default, ranks independently of pose): above 0, shapes
+    /// whose matched parts sit as the query's do (the same pose, the exact source of a
+    /// fragment) rank above the same parts in another pose. An index written by format 1 or 2
+    /// has no part positions: its shapes are ranked without the check.
+    pub fn set_pose_weight(&mut self, weight: f64) -> Result<(), Error> {
+        if !(0.0..=1.0).contains(&weight) {
+            return Err(Error::Invalid(format!(
+                "the pose weight must be between 0 and 1, got {weight}"
+            )));
+        }
+        self.pose_weight = weight;
+        Ok(())
     }
 
     /// The index folder.
@@ -144,12 +161,17 @@ impl Searcher {
     pub fn rank(&self, query: &Analysed, k: usize) -> Result<Vec<Ranked>, Error> {
         check_k(k)?;
         let (descriptors, layout) = query.view();
-        let params = query.match_params(&MatchParams::default());
+        let params = query.match_params(&MatchParams {
+            pose_weight: self.pose_weight,
+            ..MatchParams::default()
+        });
         let areas = query.areas(&params);
+        let centres = query.centres(&params);
         let view = ShapeView {
             descriptors: &descriptors,
             layout,
             areas: &areas,
+            centres: &centres,
         };
         Ok(rank(&self.reader, view, k, &params)?)
     }

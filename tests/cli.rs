@@ -323,6 +323,65 @@ fn match_pairs_a_shape_with_its_moved_copy() {
     assert!(read_mesh(&pa).is_ok() && read_mesh(&pb).is_ok());
 }
 
+/// `match --pose W`: a moved copy keeps its pose (every compared pair agrees, the score stays
+/// as without the check); a copy bent about an axis agrees less and scores lower; a weight
+/// outside [0, 1] is refused (exit 2) before anything is read.
+#[test]
+fn match_with_the_pose_check_tells_a_moved_copy_from_a_bent_one() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let a = textured_off(dir.path());
+    let base = synth::textured_protrusion_sphere(6);
+    let write = |name: &str, f: &dyn Fn(keycomp_mesh::Point3<f64>) -> keycomp_mesh::Point3<f64>| {
+        let mut m = base.clone();
+        for p in &mut m.positions {
+            *p = f(*p);
+        }
+        let path = dir.path().join(name);
+        write_off(&m, &path).expect("write");
+        path
+    };
+    let moved = write("moved.off", &|p| {
+        keycomp_mesh::Point3::new(p.y + 5.0, -p.x, p.z - 3.0)
+    });
+    // a bend: each point turned about the z axis by an angle growing with its height
+    let bent = write("bent.off", &|p| {
+        let t = 1.2 * p.z;
+        keycomp_mesh::Point3::new(
+            p.x * t.cos() - p.y * t.sin(),
+            p.x * t.sin() + p.y * t.cos(),
+            p.z,
+        )
+    });
+    let run = |b: &Path, pose: &str| -> Value {
+        let o = keycomp(&[
+            "match",
+            a.to_str().expect("utf8"),
+            b.to_str().expect("utf8"),
+            "--json",
+            "--pose",
+            pose,
+        ]);
+        assert!(o.status.success(), "stderr: {}", stderr(&o));
+        serde_json::from_slice(&o.stdout).expect("valid JSON")
+    };
+    let (m0, m1) = (run(&moved, "0"), run(&moved, "0.5"));
+    assert!(m0["pose"].is_null(), "{m0}");
+    assert_eq!(m1["pose"].as_f64(), Some(1.0), "{m1}");
+    assert_eq!(m0["score"], m1["score"]);
+    let (b0, b1) = (run(&bent, "0"), run(&bent, "0.5"));
+    let agreement = b1["pose"].as_f64().expect("pose compared");
+    assert!(agreement < 0.9, "{b1}");
+    assert!(
+        b1["score"].as_f64().expect("score") < b0["score"].as_f64().expect("score"),
+        "{b0} {b1}"
+    );
+    for w in ["1.5", "-0.1", "x"] {
+        let o = keycomp(&["match", "nothing.off", "nothing.off", "--pose", w]);
+        assert_eq!(o.status.code(), Some(2), "--pose {w}");
+        assert!(stderr(&o).contains("--pose"), "{}", stderr(&o));
+    }
+}
+
 #[test]
 fn render_writes_png_pictures_and_rejects_bad_options() {
     let dir = tempfile::tempdir().expect("tempdir");

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 use keycomp_components::{Detection, Preset, detect as detect_components};
 use keycomp_core::collection::{self, AddOptions};
-use keycomp_core::matching::match_analysed;
+use keycomp_core::matching::{MatchParams, match_analysed_with};
 use keycomp_core::options::DetectOptions;
 use keycomp_core::search::{Hit, Searcher};
 use keycomp_core::{Analysed, Profile, analyse, analyse_mesh};
@@ -367,6 +367,7 @@ struct MatchResult {
     matches: Vec<Match>,
     rejected: usize,
     scale: Option<f64>,
+    pose: Option<f64>,
 }
 
 #[pymethods]
@@ -387,18 +388,36 @@ fn analyse_input(input: MeshInput, profile: &Profile) -> PyResult<Analysed> {
     }
 }
 
-/// Matches two meshes part to part, as `keycomp match A B`.
-#[pyfunction(name = "match")]
+/// A pose weight must be in [0, 1].
+fn check_pose(pose: f64) -> PyResult<()> {
+    if (0.0..=1.0).contains(&pose) {
+        Ok(())
+    } else {
+        Err(PyValueError::new_err(format!(
+            "pose must be between 0 and 1, got {pose}"
+        )))
+    }
+}
+
+/// Matches two meshes part to part, as `keycomp match A B`; `pose` weighs the pose check as
+/// `keycomp match --pose` does (0–1, default 0).
+#[pyfunction(name = "match", signature = (a, b, pose=0.0))]
 fn match_meshes(
     py: Python<'_>,
     a: &Bound<'_, PyAny>,
     b: &Bound<'_, PyAny>,
+    pose: f64,
 ) -> PyResult<MatchResult> {
+    check_pose(pose)?;
     let (a, b) = (mesh_input(a, None)?, mesh_input(b, None)?);
     py.detach(|| {
         let profile = Profile::current(&DetectOptions::default().retrieval_params());
         let (a, b) = rayon::join(|| analyse_input(a, &profile), || analyse_input(b, &profile));
-        let m = match_analysed(&a?, &b?, ("a", "b"));
+        let params = MatchParams {
+            pose_weight: pose,
+            ..MatchParams::default()
+        };
+        let m = match_analysed_with(&a?, &b?, ("a", "b"), &params);
         Ok(MatchResult {
             score: m.score,
             matches: m
@@ -412,6 +431,7 @@ fn match_meshes(
                 .collect(),
             rejected: m.rejected,
             scale: m.scale,
+            pose: m.pose,
         })
     })
 }
@@ -499,20 +519,24 @@ impl Index {
         })
     }
 
-    /// The `k` best shapes for a mesh (a path, (vertices, faces), or a trimesh), best first.
-    #[pyo3(signature = (mesh, k=10))]
+    /// The `k` best shapes for a mesh (a path, (vertices, faces), or a trimesh), best first;
+    /// `pose` weighs the pose check as `keycomp query --pose` does (0–1, default 0).
+    #[pyo3(signature = (mesh, k=10, pose=0.0))]
     fn query(
         &self,
         py: Python<'_>,
         mesh: &Bound<'_, PyAny>,
         k: usize,
+        pose: f64,
     ) -> PyResult<Vec<QueryResult>> {
         if k == 0 {
             return Err(PyValueError::new_err("k must be at least 1"));
         }
+        check_pose(pose)?;
         let input = mesh_input(mesh, None)?;
         py.detach(|| {
-            let searcher = Searcher::open(&self.path, None).map_err(analysis_err)?;
+            let mut searcher = Searcher::open(&self.path, None).map_err(analysis_err)?;
+            searcher.set_pose_weight(pose).map_err(analysis_err)?;
             let answer = match input {
                 MeshInput::Path(p) => searcher.query(&p, k),
                 MeshInput::Mesh(m) => searcher.query_mesh("query", m, k),

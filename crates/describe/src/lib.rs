@@ -231,6 +231,9 @@ pub struct ComponentDescription {
     pub descriptor: Descriptor,
     /// The part's centre (vertex id).
     pub center: u32,
+    /// Position of the centre in the layout's frame and length unit (the mesh scaled as
+    /// [`DescribeParams::units`] says, then smoothed): what matching's pose check compares.
+    pub position: [f32; 3],
     /// Area of the part as a fraction of the shape's area.
     pub area: f64,
     /// Number of detection keypoints in the part.
@@ -624,9 +627,11 @@ pub fn describe_with(
             layout[ci * m + cj] = d[o as usize] as f32;
         }
         let (descriptor, radius, area) = describe_part(&surface, &p, d);
+        let at = surface.mesh.positions[p.center as usize];
         components.push(ComponentDescription {
             descriptor,
             center: p.center,
+            position: [at.x as f32, at.y as f32, at.z as f32],
             area: if total > 0.0 { area / total } else { 0.0 },
             keypoints: p.keypoints,
             radius,

@@ -61,7 +61,7 @@ pub use writer::{AddOutcome, AddSummary, IndexWriter, MergeSummary};
 /// The on-disk format version this build writes. Bumped on any incompatible change; files of a
 /// version outside [`OLDEST_READABLE_VERSION`]`..=FORMAT_VERSION` are refused with
 /// [`IndexError::Incompatible`].
-pub const FORMAT_VERSION: u32 = 2;
+pub const FORMAT_VERSION: u32 = 3;
 
 /// Oldest format version this build still reads (version 1 has no manifest profile; see
 /// `index/README.md`, *Versions*).

@@ -84,6 +84,59 @@ pub struct ComponentRecord<const D: usize> {
     pub area_fraction: f32,
     /// Number of keypoints in the component's cluster.
     pub keypoint_count: u32,
+    /// Position of the centre in the layout's frame and length unit (any translation and
+    /// rotation of the whole shape); `None` in records written by format 1 or 2, which did not
+    /// store it. Must be finite.
+    #[serde(default)]
+    pub centre: Option<[f32; 3]>,
+}
+
+/// [`ComponentRecord`] as formats 1 and 2 store it (without [`ComponentRecord::centre`]).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub(crate) struct ComponentRecordV2<const D: usize> {
+    #[serde(with = "array_serde")]
+    descriptor: [f32; D],
+    centre_vertex: u32,
+    area_fraction: f32,
+    keypoint_count: u32,
+}
+
+/// [`ShapeRecord`] as formats 1 and 2 store it.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub(crate) struct ShapeRecordV2<const D: usize> {
+    path: PathBuf,
+    canonical_path: PathBuf,
+    content_hash: ContentHash,
+    vertex_count: u32,
+    face_count: u32,
+    surface_area: f64,
+    components: Vec<ComponentRecordV2<D>>,
+    layout: Vec<f32>,
+}
+
+impl<const D: usize> From<ShapeRecordV2<D>> for ShapeRecord<D> {
+    fn from(r: ShapeRecordV2<D>) -> Self {
+        ShapeRecord {
+            path: r.path,
+            canonical_path: r.canonical_path,
+            content_hash: r.content_hash,
+            vertex_count: r.vertex_count,
+            face_count: r.face_count,
+            surface_area: r.surface_area,
+            components: r
+                .components
+                .into_iter()
+                .map(|c| ComponentRecord {
+                    descriptor: c.descriptor,
+                    centre_vertex: c.centre_vertex,
+                    area_fraction: c.area_fraction,
+                    keypoint_count: c.keypoint_count,
+                    centre: None,
+                })
+                .collect(),
+            layout: r.layout,
+        }
+    }
 }
 
 /// Everything the index stores about one shape.
@@ -172,6 +225,13 @@ impl<const D: usize> ShapeRecord<D> {
                 return Err(bad(format!(
                     "area fraction {} of component {c} is not between 0 and 1",
                     comp.area_fraction
+                )));
+            }
+            if let Some(p) = comp.centre
+                && !p.iter().all(|v| v.is_finite())
+            {
+                return Err(bad(format!(
+                    "the centre position of component {c} is not finite"
                 )));
             }
             if comp.keypoint_count > self.vertex_count {

@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{CorruptKind, IndexError, Result};
 use crate::file::{self, KIND_SEGMENT};
 use crate::manifest::{Manifest, SegmentEntry, bincode_config, decode_bounded, segment_file_name};
-use crate::record::{ContentHash, ShapeId, ShapeRecord};
+use crate::record::{ContentHash, ShapeId, ShapeRecord, ShapeRecordV2};
 use crate::{FORMAT_VERSION, MANIFEST_NAME};
 
 /// Catalogue entry of one shape in a segment head.
@@ -200,22 +200,31 @@ pub fn read<const D: usize>(
         &opened.payload()[used..],
         &head,
         Some(entry.components),
+        opened.version,
     )?;
     Ok(Segment { head, records })
 }
 
 /// Decodes the records that follow `head` in a segment payload (`rest`) and checks them
 /// against the head and the component count `expected` (the segment's entry's; `None` when
-/// there is no entry to check against).
+/// there is no entry to check against), as format `version` stores them (formats 1 and 2
+/// without the parts' centre positions).
 fn decode_records<const D: usize>(
     path: &Path,
     rest: &[u8],
     head: &SegmentHead,
     expected: Option<u64>,
+    version: u32,
 ) -> Result<Vec<ShapeRecord<D>>> {
     let malformed = |msg: String| IndexError::corrupt(path, CorruptKind::Malformed(msg));
+    let decoded = if version <= 2 {
+        decode_bounded::<Vec<ShapeRecordV2<D>>>(rest)
+            .map(|(r, used)| (r.into_iter().map(ShapeRecord::from).collect(), used))
+    } else {
+        decode_bounded(rest)
+    };
     let (records, used2): (Vec<ShapeRecord<D>>, usize) =
-        decode_bounded(rest).map_err(|e| malformed(format!("records: {e}")))?;
+        decoded.map_err(|e| malformed(format!("records: {e}")))?;
     if used2 != rest.len() {
         return Err(malformed(format!(
             "{} unexpected bytes after the records",
@@ -276,7 +285,7 @@ pub fn decode_unsealed<const D: usize>(payload: &[u8]) -> Result<Segment<D>> {
     };
     let (head, used) = decode_head(path, payload, &manifest, &entry)?;
     // The component count is the one thing the head does not tell: not checked.
-    let records = decode_records::<D>(path, &payload[used..], &head, None)?;
+    let records = decode_records::<D>(path, &payload[used..], &head, None, FORMAT_VERSION)?;
     Ok(Segment { head, records })
 }
 
@@ -410,7 +419,12 @@ mod tests {
         want += 8; // record count
         for r in &recs {
             want += string(&r.path) + string(&r.canonical_path) + 16 + 4 + 4 + 8;
-            want += 8 + r.components.len() * (4 * D + 4 + 4 + 4);
+            // component count, then per component: descriptor, centre vertex, area fraction,
+            // keypoints, then the centre, a tag byte and, when present, three f32
+            want += 8;
+            for c in &r.components {
+                want += 4 * D + 4 + 4 + 4 + 1 + c.centre.map_or(0, |_| 12);
+            }
             want += 8 + 4 * r.layout.len();
         }
         assert_eq!(bytes.len(), want + file::FOOTER_LEN);

@@ -26,11 +26,21 @@ pub fn record_version<const D: usize>(seed: u64, i: u64, version: u32) -> ShapeR
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ stream);
     let m = rng.random_range(4..=8usize);
     let components = (0..m)
-        .map(|_| ComponentRecord {
-            descriptor: std::array::from_fn(|_| rng.random::<f32>()),
-            centre_vertex: rng.random_range(0..10_000),
-            area_fraction: rng.random_range(0.01..0.3),
-            keypoint_count: rng.random_range(1..40),
+        .map(|_| {
+            let mut c = ComponentRecord {
+                descriptor: std::array::from_fn(|_| rng.random::<f32>()),
+                centre_vertex: rng.random_range(0..10_000),
+                area_fraction: rng.random_range(0.01..0.3),
+                keypoint_count: rng.random_range(1..40),
+                centre: None,
+            };
+            // a position from the values drawn (no extra draw: the stream stays as it was)
+            c.centre = Some([
+                c.descriptor.first().copied().unwrap_or(0.0),
+                c.area_fraction,
+                (c.centre_vertex % 100) as f32 * 0.01,
+            ]);
+            c
         })
         .collect();
     let mut layout = vec![0f32; m * m];

@@ -185,23 +185,27 @@ fn missing_segment_file() {
 fn newer_format_version_is_incompatible() {
     let (_t, dir) = build();
     let p = dir.join(MANIFEST_NAME);
-    set_version(&p, 3);
+    let newer = keycomp_index::FORMAT_VERSION + 1;
+    set_version(&p, newer);
     let e = open_err(&dir);
     assert!(
         matches!(
             e,
             IndexError::Incompatible {
-                found: 3,
+                found,
                 supported: keycomp_index::FORMAT_VERSION,
                 ..
-            }
+            } if found == newer
         ),
         "{e}"
     );
     names(&e, &p);
     let msg = e.to_string();
     assert!(
-        msg.contains("incompatible: format version 3, this keycomp reads versions 1 to 2"),
+        msg.contains(&format!(
+            "incompatible: format version {newer}, this keycomp reads versions 1 to {}",
+            keycomp_index::FORMAT_VERSION
+        )),
         "{msg}"
     );
     assert!(msg.contains("upgrade keycomp"), "{msg}");

@@ -50,6 +50,59 @@ fn format_v2_fixture_still_opens() {
     assert!(verify::<D>(&dir).unwrap().is_ok());
 }
 
+#[test]
+fn format_v3_fixture_still_opens() {
+    let dir = fixture(3);
+    let r = IndexReader::<D>::open(&dir).unwrap();
+    assert_eq!(r.profile(), FIXTURE_PROFILE);
+    let json = std::fs::read_to_string(fixture(3).with_extension("json")).unwrap();
+    let want: Vec<ShapeRecord<D>> = serde_json::from_str(&json).unwrap();
+    let got: Vec<_> = r.shapes().iter().map(|s| s.record.clone()).collect();
+    assert_eq!(got, want);
+    assert!(
+        got.iter()
+            .all(|s| s.components.iter().all(|c| c.centre.is_some())),
+        "format 3 stores every part's centre"
+    );
+    assert_eq!(r.stats().segments, 2);
+    assert!(verify::<D>(&dir).unwrap().is_ok());
+}
+
+/// Formats 1 and 2 stored no centre positions: their records read with none, and an add to a
+/// version-2 index writes a version-3 segment beside the old ones, both read back.
+#[test]
+fn older_formats_read_without_centres_and_take_new_segments() {
+    for v in [1, 2] {
+        let r = IndexReader::<D>::open(fixture(v)).unwrap();
+        assert!(
+            r.shapes()
+                .iter()
+                .all(|s| s.record.components.iter().all(|c| c.centre.is_none())),
+            "format {v}"
+        );
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("v2");
+    std::fs::create_dir(&dir).unwrap();
+    for e in std::fs::read_dir(fixture(2)).unwrap() {
+        let e = e.unwrap();
+        std::fs::copy(e.path(), dir.join(e.file_name())).unwrap();
+    }
+    let mut w = IndexWriter::<D>::create_or_open(&dir).unwrap();
+    w.ensure_profile(FIXTURE_PROFILE).unwrap();
+    w.add_batch(synthetic::records::<D>(21, 10..12)).unwrap();
+    drop(w);
+    let r = IndexReader::<D>::open(&dir).unwrap();
+    assert_eq!(r.shapes().len(), 5);
+    let with_centres = r
+        .shapes()
+        .iter()
+        .filter(|s| s.record.components.iter().all(|c| c.centre.is_some()))
+        .count();
+    assert_eq!(with_centres, 2);
+    assert!(verify::<D>(&dir).unwrap().is_ok());
+}
+
 /// A format-1 index with shapes has no profile: adding to it under a profile is refused and
 /// leaves it untouched; removing from it still works and rewrites it as format 2, keeping the
 /// (empty) profile.

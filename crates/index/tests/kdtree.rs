@@ -16,6 +16,7 @@ fn shape(i: usize, descriptors: &[[f32; D]]) -> ShapeRecord<D> {
             centre_vertex: 0,
             area_fraction: 0.1,
             keypoint_count: 3,
+            centre: None,
         })
         .collect();
     let m = descriptors.len();

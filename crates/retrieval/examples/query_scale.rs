@@ -27,6 +27,7 @@ fn view<'a>(descriptors: &'a [[f32; DIM]], layout: &'a [f32]) -> ShapeView<'a> {
         descriptors,
         layout,
         areas: &[],
+        centres: &[],
     }
 }
 

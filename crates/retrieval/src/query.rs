@@ -97,6 +97,7 @@ pub fn rank(
                         score: 0.0,
                         scale: None,
                         rejected: 0,
+                        pose: None,
                     },
                 })
             }),
@@ -127,6 +128,7 @@ fn match_candidates(
         rec: &'a keycomp_index::ShapeRecord<DIM>,
         descriptors: Vec<Descriptor>,
         areas: Vec<f32>,
+        centres: Vec<[f32; 3]>,
         d: Vec<f32>,
         bound: f64,
     }
@@ -140,11 +142,13 @@ fn match_candidates(
             let d = crate::distances(query.descriptors, &descriptors);
             let bound = crate::score_bound(mq, descriptors.len(), &d, params, weights);
             let areas = record_areas(rec, params);
+            let centres = record_centres(rec, params);
             Some(Candidate {
                 id,
                 rec,
                 descriptors,
                 areas,
+                centres,
                 d,
                 bound,
             })
@@ -174,6 +178,7 @@ fn match_candidates(
                         descriptors: &c.descriptors,
                         layout: &c.rec.layout,
                         areas: &c.areas,
+                        centres: &c.centres,
                     },
                     &c.d,
                     params,
@@ -209,6 +214,22 @@ pub fn record_areas(rec: &keycomp_index::ShapeRecord<DIM>, params: &MatchParams)
         .iter()
         .map(|c| c.area_fraction * unit)
         .collect()
+}
+
+/// The part centres of an indexed shape as [`ShapeView::centres`] wants them; empty when the
+/// pose check is off or the record has none (written by index format 1 or 2).
+pub fn record_centres(
+    rec: &keycomp_index::ShapeRecord<DIM>,
+    params: &MatchParams,
+) -> Vec<[f32; 3]> {
+    if params.pose_weight <= 0.0 {
+        return Vec::new();
+    }
+    rec.components
+        .iter()
+        .map(|c| c.centre)
+        .collect::<Option<Vec<_>>>()
+        .unwrap_or_default()
 }
 
 /// Candidate shapes and their votes: for each query part, the similarity

@@ -25,6 +25,7 @@ fn records(rng: &mut ChaCha8Rng, classes: &[Vec<Descriptor>], n: usize) -> Vec<S
                     centre_vertex: 0,
                     area_fraction: 0.1,
                     keypoint_count: 1,
+                    centre: None,
                 })
                 .collect();
             let mut layout = vec![0f32; m * m];
@@ -80,6 +81,7 @@ fn pruned_top_k_equals_the_full_ranking() {
             descriptors: &descs,
             layout: &src.layout,
             areas: &areas,
+            centres: &[],
         };
         let full = rank(&reader, view, 10_000, &params).expect("rank");
         assert!(full.len() > 10, "more candidates than the largest k");
