@@ -138,6 +138,20 @@ def test_match_is_high_for_a_shape_and_itself(shape):
     assert m.score > 0.9 and m.matches
 
 
+def test_the_pose_check_keeps_a_shape_and_itself_and_refuses_bad_weights(shape, tmp_path):
+    path, v, f = shape
+    m = keycomp.match(path, (v, f), pose=0.5)
+    assert m.pose == 1.0 and m.score > 0.9
+    assert keycomp.match(path, (v, f)).pose is None, "off by default"
+    index = keycomp.Index(tmp_path / "pose")
+    assert index.add([path]) == 1
+    assert index.query(path, k=1, pose=0.5)[0].score > 0.9
+    with pytest.raises(ValueError, match="pose"):
+        keycomp.match(path, path, pose=1.5)
+    with pytest.raises(ValueError, match="pose"):
+        index.query(path, pose=-0.1)
+
+
 def test_meshes_in_memory_and_merge(shape, tmp_path):
     path, v, f = shape
     a = keycomp.Index(tmp_path / "a")

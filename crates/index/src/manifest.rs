@@ -44,9 +44,9 @@ pub struct Manifest {
     pub segments: Vec<SegmentEntry>,
     /// Ids of removed or replaced shapes that still sit in a live segment; sorted, unique.
     pub tombstones: Vec<ShapeId>,
-    /// How the descriptors were made (format 2): free text set by the program that fills the
-    /// index, compared before adding or querying so that descriptors computed differently
-    /// are never mixed or compared. Empty for an index without a profile yet, and for every
+    /// How the descriptors were made (from format 2 on): free text set by the program that
+    /// fills the index, compared before adding or querying so that descriptors computed
+    /// differently are never mixed or compared. Empty for an index without a profile yet, and for every
     /// format-1 index.
     pub profile: String,
 }

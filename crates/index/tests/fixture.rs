@@ -104,8 +104,8 @@ fn older_formats_read_without_centres_and_take_new_segments() {
 }
 
 /// A format-1 index with shapes has no profile: adding to it under a profile is refused and
-/// leaves it untouched; removing from it still works and rewrites it as format 2, keeping the
-/// (empty) profile.
+/// leaves it untouched; removing from it still works and rewrites it in the current format,
+/// keeping the (empty) profile.
 #[test]
 fn format_v1_index_refuses_a_profile_but_stays_usable() {
     let tmp = tempfile::tempdir().unwrap();

@@ -95,7 +95,7 @@ pub struct MatchParams {
     /// is sought (a fragment's exact source, rigid objects), 0.5 raised every SHREC'07
     /// Watertight row in both length modes (balls 0.890 / 0.632 to 0.925 / 0.642 NN / mAP,
     /// source first 153 to 164 of 200) and, in file units, put TOSCA fragments' exact source
-    /// first for 73 instead of 50 of 108 (BENCHMARKS.md, *The pose check*).
+    /// first for 63 instead of 50 of 108 (BENCHMARKS.md, *The pose check*).
     pub pose_weight: f64,
     /// Largest factor by which two straight-line distances between matched centres may
     /// disagree after scaling for the pose check to count the pair as agreeing (default
