@@ -167,7 +167,7 @@ pub struct Args {
     pub max_distance: Option<f32>,
     /// Ablation: how much the pose check weighs (`MatchParams::pose_weight`, in [0, 1])
     /// [default: the matching's].
-    #[arg(long, value_name = "W")]
+    #[arg(long, value_name = "W", value_parser = crate::output::unit_weight)]
     pub pose_weight: Option<f64>,
     /// Ablation: the pose check's tolerance (`MatchParams::pose_tolerance`, ≥ 1) [default: the
     /// matching's].
@@ -838,9 +838,6 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
         match_params.max_distance = d;
     }
     if let Some(w) = args.pose_weight {
-        if !(0.0..=1.0).contains(&w) {
-            bail!("--pose-weight: expected a weight between 0 and 1, got {w}");
-        }
         match_params.pose_weight = w;
     }
     if let Some(t) = args.pose_tolerance {

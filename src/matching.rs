@@ -75,13 +75,20 @@ pub struct MatchOptions {
     pub pose_weight: f64,
 }
 
-/// Matches two analysed meshes, named `a` and `b` in the result.
-pub fn match_analysed(a: &Analysed, b: &Analysed, names: (&str, &str)) -> MatchResult {
-    match_analysed_with(a, b, names, &MatchParams::default())
+/// Checks a pose weight ([`MatchParams::pose_weight`]): a number in [0, 1].
+pub fn check_pose_weight(weight: f64) -> Result<f64, Error> {
+    if (0.0..=1.0).contains(&weight) {
+        Ok(weight)
+    } else {
+        Err(Error::Invalid(format!(
+            "the pose weight must be between 0 and 1, got {weight}"
+        )))
+    }
 }
 
-/// [`match_analysed`] with other matching parameters (`file_units` is set from the analyses).
-pub fn match_analysed_with(
+/// Matches two analysed meshes, named `a` and `b` in the result, with `params`
+/// (`file_units` is set from the analyses).
+pub fn match_analysed(
     a: &Analysed,
     b: &Analysed,
     names: (&str, &str),
@@ -137,20 +144,15 @@ pub fn match_files(
     b: &Path,
     options: &MatchOptions,
 ) -> Result<(Analysed, Analysed, MatchResult), Error> {
-    if !(0.0..=1.0).contains(&options.pose_weight) {
-        return Err(Error::Invalid(format!(
-            "the pose weight must be between 0 and 1, got {}",
-            options.pose_weight
-        )));
-    }
+    let pose_weight = check_pose_weight(options.pose_weight)?;
     let profile = match_profile(options, b)?;
     let (x, y) = rayon::join(|| analyse(a, &profile), || analyse(b, &profile));
     let (x, y) = (x?, y?);
     let params = MatchParams {
-        pose_weight: options.pose_weight,
+        pose_weight,
         ..MatchParams::default()
     };
-    let m = match_analysed_with(
+    let m = match_analysed(
         &x,
         &y,
         (&a.display().to_string(), &b.display().to_string()),

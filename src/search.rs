@@ -117,12 +117,7 @@ impl Searcher {
     /// fragment) rank above the same parts in another pose. An index written by format 1 or 2
     /// has no part positions: its shapes are ranked without the check.
     pub fn set_pose_weight(&mut self, weight: f64) -> Result<(), Error> {
-        if !(0.0..=1.0).contains(&weight) {
-            return Err(Error::Invalid(format!(
-                "the pose weight must be between 0 and 1, got {weight}"
-            )));
-        }
-        self.pose_weight = weight;
+        self.pose_weight = crate::matching::check_pose_weight(weight)?;
         Ok(())
     }
 

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 use keycomp_components::{Detection, Preset, detect as detect_components};
 use keycomp_core::collection::{self, AddOptions};
-use keycomp_core::matching::{MatchParams, match_analysed_with};
+use keycomp_core::matching::{MatchParams, check_pose_weight, match_analysed};
 use keycomp_core::options::DetectOptions;
 use keycomp_core::search::{Hit, Searcher};
 use keycomp_core::{Analysed, Profile, analyse, analyse_mesh};
@@ -388,17 +388,6 @@ fn analyse_input(input: MeshInput, profile: &Profile) -> PyResult<Analysed> {
     }
 }
 
-/// A pose weight must be in [0, 1].
-fn check_pose(pose: f64) -> PyResult<()> {
-    if (0.0..=1.0).contains(&pose) {
-        Ok(())
-    } else {
-        Err(PyValueError::new_err(format!(
-            "pose must be between 0 and 1, got {pose}"
-        )))
-    }
-}
-
 /// Matches two meshes part to part, as `keycomp match A B`; `pose` weighs the pose check as
 /// `keycomp match --pose` does (0–1, default 0).
 #[pyfunction(name = "match", signature = (a, b, pose=0.0))]
@@ -408,7 +397,7 @@ fn match_meshes(
     b: &Bound<'_, PyAny>,
     pose: f64,
 ) -> PyResult<MatchResult> {
-    check_pose(pose)?;
+    let pose = check_pose_weight(pose).map_err(analysis_err)?;
     let (a, b) = (mesh_input(a, None)?, mesh_input(b, None)?);
     py.detach(|| {
         let profile = Profile::current(&DetectOptions::default().retrieval_params());
@@ -417,7 +406,7 @@ fn match_meshes(
             pose_weight: pose,
             ..MatchParams::default()
         };
-        let m = match_analysed_with(&a?, &b?, ("a", "b"), &params);
+        let m = match_analysed(&a?, &b?, ("a", "b"), &params);
         Ok(MatchResult {
             score: m.score,
             matches: m
@@ -532,7 +521,6 @@ impl Index {
         if k == 0 {
             return Err(PyValueError::new_err("k must be at least 1"));
         }
-        check_pose(pose)?;
         let input = mesh_input(mesh, None)?;
         py.detach(|| {
             let mut searcher = Searcher::open(&self.path, None).map_err(analysis_err)?;

@@ -22,50 +22,43 @@ fn fixture(version: u32) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(format!("tests/fixtures/v{version}"))
 }
 
+/// Opens the fixture of format `version`, checks that it reads to its JSON records, holds two
+/// segments and verifies clean; returns the reader and the records.
+fn open_fixture(version: u32) -> (IndexReader<D>, Vec<ShapeRecord<D>>) {
+    let dir = fixture(version);
+    let r = IndexReader::<D>::open(&dir).unwrap();
+    let json = std::fs::read_to_string(dir.with_extension("json")).unwrap();
+    let want: Vec<ShapeRecord<D>> = serde_json::from_str(&json).unwrap();
+    let got: Vec<_> = r.shapes().iter().map(|s| s.record.clone()).collect();
+    assert_eq!(got, want, "format {version}");
+    assert_eq!(r.stats().segments, 2);
+    assert!(verify::<D>(&dir).unwrap().is_ok());
+    (r, got)
+}
+
 #[test]
 fn format_v1_fixture_still_opens() {
-    let dir = fixture(1);
-    let r = IndexReader::<D>::open(&dir).unwrap();
+    let (r, got) = open_fixture(1);
     assert_eq!(r.profile(), "", "format 1 has no profile");
-    let json = std::fs::read_to_string(fixture(1).with_extension("json")).unwrap();
-    let want: Vec<ShapeRecord<D>> = serde_json::from_str(&json).unwrap();
-    assert_eq!(want.len(), 3);
-    let got: Vec<_> = r.shapes().iter().map(|s| s.record.clone()).collect();
-    assert_eq!(got, want);
-    assert_eq!(r.stats().segments, 2);
+    assert_eq!(got.len(), 3);
     assert_eq!(r.stats().tombstones, 1);
-    assert!(verify::<D>(&dir).unwrap().is_ok());
 }
 
 #[test]
 fn format_v2_fixture_still_opens() {
-    let dir = fixture(2);
-    let r = IndexReader::<D>::open(&dir).unwrap();
+    let (r, _) = open_fixture(2);
     assert_eq!(r.profile(), FIXTURE_PROFILE);
-    let json = std::fs::read_to_string(fixture(2).with_extension("json")).unwrap();
-    let want: Vec<ShapeRecord<D>> = serde_json::from_str(&json).unwrap();
-    let got: Vec<_> = r.shapes().iter().map(|s| s.record.clone()).collect();
-    assert_eq!(got, want);
-    assert_eq!(r.stats().segments, 2);
-    assert!(verify::<D>(&dir).unwrap().is_ok());
 }
 
 #[test]
 fn format_v3_fixture_still_opens() {
-    let dir = fixture(3);
-    let r = IndexReader::<D>::open(&dir).unwrap();
+    let (r, got) = open_fixture(3);
     assert_eq!(r.profile(), FIXTURE_PROFILE);
-    let json = std::fs::read_to_string(fixture(3).with_extension("json")).unwrap();
-    let want: Vec<ShapeRecord<D>> = serde_json::from_str(&json).unwrap();
-    let got: Vec<_> = r.shapes().iter().map(|s| s.record.clone()).collect();
-    assert_eq!(got, want);
     assert!(
         got.iter()
             .all(|s| s.components.iter().all(|c| c.centre.is_some())),
         "format 3 stores every part's centre"
     );
-    assert_eq!(r.stats().segments, 2);
-    assert!(verify::<D>(&dir).unwrap().is_ok());
 }
 
 /// Formats 1 and 2 stored no centre positions: their records read with none, and an add to a

@@ -38,8 +38,8 @@
 //!    pairs the layout compares take part (not the whole-surface part).
 //! 6. Score: the kept similarities, each times its query part's weight (and its pose factor),
 //!    summed and divided by the sum of the weights of all query parts, in [0, 1]: 1 when every
-//!    query part has an identical partner in a consistent layout. Dividing by the query's parts (not the
-//!    target's) lets a fragment match the whole shape it was cut from. [`match_shapes`] weighs
+//!    query part has an identical partner in a consistent layout. Dividing by the query's
+//!    parts (not the target's) lets a fragment match the whole shape it was cut from. [`match_shapes`] weighs
 //!    every part 1; [`rank`] weighs a part by its inverse frequency in the index
 //!    ([`idf_weights`]), so parts that many shapes have count less.
 //!
@@ -432,7 +432,8 @@ pub(crate) fn match_distances(
     } else {
         0.0
     };
-    let mut pose = vec![1.0f64; matches.len()];
+    // each kept match's pose factor; empty (every factor 1) when the check does not run
+    let mut pose: Vec<f64> = Vec::new();
     let mut agreement = None;
     if scale.is_some() && beta > 0.0 && !query.centres.is_empty() && !target.centres.is_empty() {
         // straight-line distances (query, target) of every pair of kept matches that the
@@ -472,11 +473,17 @@ pub(crate) fn match_distances(
                     counts[i].1 += 1;
                 }
             }
-            for (p, &(agree, compared)) in pose.iter_mut().zip(&counts) {
-                if compared > 0 {
-                    *p = agree as f64 / compared as f64;
-                }
-            }
+            pose = counts
+                .iter()
+                .map(|&(agree, compared)| {
+                    let c = if compared > 0 {
+                        agree as f64 / compared as f64
+                    } else {
+                        1.0
+                    };
+                    1.0 - beta * (1.0 - c)
+                })
+                .collect();
             if !pairs.is_empty() {
                 let agree: usize = counts.iter().map(|c| c.0).sum();
                 agreement = Some(agree as f64 / (2 * pairs.len()) as f64);
@@ -487,11 +494,11 @@ pub(crate) fn match_distances(
     let score = if total > 0.0 {
         matches
             .iter()
-            .zip(&pose)
-            .map(|(m, &c)| {
+            .enumerate()
+            .map(|(i, m)| {
                 (1.0 - (m.distance / max_d) as f64).max(0.0)
                     * weight_of(m.query)
-                    * (1.0 - beta * (1.0 - c))
+                    * pose.get(i).copied().unwrap_or(1.0)
             })
             .sum::<f64>()
             / total
