@@ -257,18 +257,27 @@ impl Ivf {
     }
 
     /// The global fine cell nearest `p`: in the nearest coarse cell that has fine cells, the
-    /// nearest fine centroid (fine cells numbered coarse cell by coarse cell).
-    fn assign(&self, p: &[f32]) -> u32 {
+    /// nearest fine centroid (fine cells numbered coarse cell by coarse cell); `None` when no
+    /// coarse cell has fine cells (a damaged cache). A distance that is not a number or is
+    /// infinite loses to every finite one, and the first such cell is taken when none is finite.
+    fn assign(&self, p: &[f32]) -> Option<u32> {
         let d = self.d;
-        let mut best = (f32::INFINITY, 0usize);
+        let mut best: Option<(f32, usize)> = None;
         for (i, c) in self.coarse.chunks_exact(d).enumerate() {
-            let dist = distance_sq(c, p);
-            if !self.fine[i].is_empty() && dist < best.0 {
-                best = (dist, i);
+            if self.fine[i].is_empty() {
+                continue;
+            }
+            let dist = match distance_sq(c, p) {
+                x if x.is_nan() => f32::INFINITY,
+                x => x,
+            };
+            if best.is_none_or(|(b, _)| dist < b) {
+                best = Some((dist, i));
             }
         }
-        let base: usize = self.fine[..best.1].iter().map(|f| f.len() / d).sum();
-        (base + nearest(&self.fine[best.1], d, p)) as u32
+        let (_, cell) = best?;
+        let base: usize = self.fine[..cell].iter().map(|f| f.len() / d).sum();
+        u32::try_from(base + nearest(&self.fine[cell], d, p)).ok()
     }
 
     /// Each item's global fine cell.
@@ -474,7 +483,7 @@ impl Ivf {
         let cells: Vec<u32> = fresh
             .par_iter()
             .map(|&i| ivf.assign(points.point(i)))
-            .collect();
+            .collect::<Option<_>>()?;
         for (&i, c) in fresh.iter().zip(cells) {
             cell[i as usize] = c;
         }
@@ -683,6 +692,25 @@ mod tests {
         assert!(
             Ivf::from_cache(path, bytes.clone(), key, &flat, d, &self::origins(501, 10)).is_none()
         );
+        // items the cache does not hold, but no fine cell to put them in
+        let empty = Stored {
+            fine: vec![Vec::new(); ivf.fine.len()],
+            segments: Vec::new(),
+            ..stored
+        };
+        assert!(Ivf::from_cache(path, seal(&empty), key, &flat, d, &origins).is_none());
+        // centroids that are not numbers or overflow: the items still get a cell each
+        let mut wild = ivf.coarse.clone();
+        wild[0] = f32::NAN;
+        wild[d] = f32::MAX;
+        let odd = Stored {
+            coarse: wild,
+            fine: ivf.fine.clone(),
+            ..empty
+        };
+        let read = Ivf::from_cache(path, seal(&odd), key, &flat, d, &origins).expect("read");
+        assert_eq!(read.assigned, 5_000);
+        assert_eq!(read.ivf.cells().len(), 5_000);
     }
 
     /// Shapes the cache does not hold go to their nearest cells, and are found; removed ones
