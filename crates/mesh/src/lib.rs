@@ -12,6 +12,7 @@ pub mod cut;
 mod error;
 pub mod geometry;
 pub mod io;
+pub mod sample;
 pub mod simplify;
 pub mod synth;
 mod topology;

@@ -27,7 +27,7 @@ use serde::Serialize;
 
 use keycomp_mesh::Mesh;
 
-use super::sample::AreaSampler;
+use keycomp_mesh::sample::AreaSampler;
 
 /// Parameters of [`d2`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]

@@ -105,7 +105,7 @@ use serde::Serialize;
 
 use keycomp_mesh::{Mesh, Point3, Vector3};
 
-use super::sample::AreaSampler;
+use keycomp_mesh::sample::AreaSampler;
 
 /// Bins of each of the three angle histograms.
 pub const BINS: usize = 11;

@@ -15,7 +15,6 @@ pub mod d2;
 pub mod fpfh;
 pub mod labels;
 pub mod metrics;
-pub mod sample;
 
 use rand::SeedableRng;
 use rand::seq::SliceRandom;

@@ -1,5 +1,5 @@
-//! Points drawn uniformly by area on a mesh, shared by the D2 ([`super::d2`]) and FPFH
-//! ([`super::fpfh`]) baselines.
+//! Points drawn uniformly by area on a mesh (used by the description's surface sample and by
+//! the D2 and FPFH baselines of `keycomp bench retrieval`).
 //!
 //! A point is drawn in two steps (R. Osada, T. Funkhouser, B. Chazelle, D. Dobkin, "Shape
 //! distributions", ACM Transactions on Graphics 21(4), 2002, Section 4.1):
@@ -14,7 +14,7 @@
 
 use rand::Rng;
 
-use keycomp_mesh::{Mesh, Point3, geometry};
+use crate::{Mesh, Point3, geometry};
 
 /// Draws points uniformly by area on one mesh (see the [module docs](self)); built once per
 /// mesh, then [`AreaSampler::sample`] any number of times.
@@ -65,7 +65,7 @@ impl<'a> AreaSampler<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use keycomp_mesh::synth;
+    use crate::synth;
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
 
