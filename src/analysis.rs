@@ -124,6 +124,9 @@ pub struct Analysed {
     pub ms: f64,
     /// The length unit it was described in.
     pub units: keycomp_describe::Units,
+    /// Vertices on the mesh's boundary: 0 for a closed surface (see
+    /// `keycomp_retrieval::verify_weight_for`).
+    pub boundary_vertices: usize,
 }
 
 /// Reads, detects and describes one mesh file under `profile`.
@@ -152,7 +155,9 @@ fn analyse_in(mesh: Mesh, profile: &Profile, path: Option<&Path>) -> Result<Anal
             source,
         }
     })?;
+    let boundary_vertices = keycomp_mesh::Topology::new(&mesh).boundary_vertices().len();
     Ok(Analysed {
+        boundary_vertices,
         mesh,
         detection,
         description,
@@ -194,9 +199,9 @@ impl Analysed {
     }
 
     /// Its parts' centre positions as `keycomp_retrieval::ShapeView::centres` wants them;
-    /// empty when `params` has the pose check off.
+    /// empty when `params` has the pose check and verification off.
     pub fn centres(&self, params: &keycomp_retrieval::MatchParams) -> Vec<[f32; 3]> {
-        if params.pose_weight <= 0.0 {
+        if params.pose_weight <= 0.0 && params.verify_weight <= 0.0 {
             return Vec::new();
         }
         self.description
@@ -204,6 +209,15 @@ impl Analysed {
             .iter()
             .map(|c| c.position)
             .collect()
+    }
+
+    /// Its surface sample as `keycomp_retrieval::ShapeView::sample` wants it; empty when
+    /// `params` has verification off.
+    pub fn sample(&self, params: &keycomp_retrieval::MatchParams) -> &[[f32; 3]] {
+        if params.verify_weight <= 0.0 {
+            return &[];
+        }
+        &self.description.sample
     }
 
     /// The matching parameters for shapes described like this one: `base` with
@@ -236,12 +250,14 @@ impl Analysed {
                 layout: la,
                 areas: &aa,
                 centres: &ca,
+                sample: self.sample(&params),
             },
             keycomp_retrieval::ShapeView {
                 descriptors: &db,
                 layout: lb,
                 areas: &ab,
                 centres: &cb,
+                sample: other.sample(&params),
             },
             &params,
         )
@@ -270,6 +286,8 @@ impl Analysed {
                 })
                 .collect(),
             layout: self.description.layout.clone(),
+            sample: self.description.sample.clone(),
+            boundary_vertices: u32::try_from(self.boundary_vertices).unwrap_or(u32::MAX),
         }
     }
 }

@@ -173,6 +173,15 @@ pub struct Args {
     /// matching's].
     #[arg(long, value_name = "T")]
     pub pose_tolerance: Option<f64>,
+    /// Ablation: how much geometric verification weighs (`MatchParams::verify_weight`, in
+    /// [0, 1]) for every query [default: automatic, `keycomp_retrieval::verify_weight_for`:
+    /// 0.5 for a fragment, 0 for a whole shape].
+    #[arg(long, value_name = "W", value_parser = crate::output::unit_weight)]
+    pub verify_weight: Option<f64>,
+    /// Ablation: geometric verification's tolerance (`MatchParams::verify_tolerance`, > 0)
+    /// [default: the matching's].
+    #[arg(long, value_name = "D")]
+    pub verify_tolerance: Option<f64>,
     /// Ablation: weigh query parts by their inverse frequency in the index
     /// (`MatchParams::idf`).
     #[arg(long)]
@@ -495,6 +504,9 @@ struct Results {
     detect_params: DetectParams,
     describe_params: DescribeParams,
     match_params: MatchParams,
+    /// Geometric verification's weight as given (`--verify-weight`); `None`: automatic, by
+    /// whether the query has a boundary (`keycomp_retrieval::verify_weight_for`).
+    verify_weight: Option<f64>,
     d2_params: D2Params,
     fpfh_params: FpfhParams,
     /// The radius rule of each FPFH baseline (for "FPFH BoW units", the collection's median
@@ -722,7 +734,15 @@ fn kc_ranking(
     record: &ShapeRecord<DIM>,
     index_of: &HashMap<PathBuf, usize>,
     match_params: &MatchParams,
+    verify: Option<f64>,
 ) -> Result<Vec<usize>> {
+    let match_params = &MatchParams {
+        verify_weight: keycomp_retrieval::verify_weight_for(
+            record.boundary_vertices as usize,
+            verify,
+        ),
+        ..*match_params
+    };
     let descs: Vec<[f32; DIM]> = record.components.iter().map(|c| c.descriptor).collect();
     if descs.is_empty() {
         return Ok(Vec::new());
@@ -734,6 +754,7 @@ fn kc_ranking(
         layout: &record.layout,
         areas: &areas,
         centres: &centres,
+        sample: keycomp_retrieval::record_sample(record, match_params),
     };
     let ranked = rank(reader, view, index_of.len(), match_params)?;
     Ok(ranked
@@ -845,6 +866,12 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
             bail!("--pose-tolerance: expected a factor ≥ 1, got {t}");
         }
         match_params.pose_tolerance = t;
+    }
+    if let Some(d) = args.verify_tolerance {
+        if !(d.is_finite() && d > 0.0) {
+            bail!("--verify-tolerance: expected a positive distance, got {d}");
+        }
+        match_params.verify_tolerance = d;
     }
     if !(match_params.layout_tolerance.is_finite() && match_params.layout_tolerance >= 1.0) {
         bail!(
@@ -991,7 +1018,13 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
     let mut sets = Vec::new();
     let whole: Vec<QueryResult> = (0..n)
         .map(|i| -> Result<QueryResult> {
-            let returned = kc_ranking(&reader, &records[i], &index_of, &match_params)?;
+            let returned = kc_ranking(
+                &reader,
+                &records[i],
+                &index_of,
+                &match_params,
+                args.verify_weight,
+            )?;
             let kc_order = complete_ranking(
                 &returned,
                 n,
@@ -1126,7 +1159,7 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
         }
         let (returned, components, error) = match &rec {
             Ok(r) => (
-                kc_ranking(&reader, r, &index_of, &match_params)?,
+                kc_ranking(&reader, r, &index_of, &match_params, args.verify_weight)?,
                 r.components.len(),
                 None,
             ),
@@ -1199,6 +1232,7 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
         detect_params: params.detect,
         describe_params: params.describe,
         match_params,
+        verify_weight: args.verify_weight,
         d2_params,
         fpfh_params,
         fpfh_scales: fpfh_scales.iter().map(|&(_, k, s)| (k, s)).collect(),

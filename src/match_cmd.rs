@@ -35,6 +35,12 @@ pub struct Args {
     /// distances disagree (another pose) lower the score. 0 (default): no pose check.
     #[arg(long, value_name = "W", default_value_t = 0.0, value_parser = crate::output::unit_weight)]
     pub pose: f64,
+    /// Weight of geometric verification, 0–1, or auto (the default: 0.5 for a query with a
+    /// boundary, a fragment or a scan; 0 for a closed shape): each shape's score is scaled by
+    /// 1 − W·(1 − f), f the share of the query's surface that lies on the shape once aligned
+    /// by the matched parts, so a fragment's exact source ranks first.
+    #[arg(long, value_name = "W|auto", default_value = "auto", value_parser = crate::output::auto_or_unit_weight)]
+    pub verify: Option<f64>,
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
@@ -86,6 +92,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
         detect: args.detect.explicit(),
         units: args.units.units()?.unwrap_or_default(),
         pose_weight: args.pose,
+        verify_weight: args.verify,
     };
     let (a, b, m) = match_files(&args.a, &args.b, &options)?;
     let match_ms = m.timings_ms.matching;
@@ -129,7 +136,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
         )?;
         writeln!(
             s,
-            "score {:.3} ({} matched pairs, {} rejected by the layout and size checks{}{})",
+            "score {:.3} ({} matched pairs, {} rejected by the layout and size checks{}{}{})",
             m.score,
             m.matches.len(),
             m.rejected,
@@ -138,6 +145,9 @@ pub fn run(args: Args) -> Result<ExitCode> {
                 .unwrap_or_default(),
             m.pose
                 .map(|x| format!(", pose agreement {x:.2}"))
+                .unwrap_or_default(),
+            m.verified
+                .map(|x| format!(", {:.0} % of A on B once aligned", 100.0 * x))
                 .unwrap_or_default()
         )?;
         if !m.matches.is_empty() {

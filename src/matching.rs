@@ -57,6 +57,9 @@ pub struct MatchResult {
     /// The pose check's agreement: of the pairs of kept matches it compared, the fraction
     /// whose straight-line distances agree (`None` when it compared none).
     pub pose: Option<f64>,
+    /// Geometric verification's fitness: the share of A's surface sample on B's surface once
+    /// aligned (`None` when it did not run: off, or fewer than three pairs to align with).
+    pub verified: Option<f64>,
     /// The kept pairs, ordered by A's part.
     pub matches: Vec<PairMatch>,
     /// Where the time went.
@@ -73,15 +76,31 @@ pub struct MatchOptions {
     /// Weight of the pose check (`keycomp_retrieval::MatchParams::pose_weight`, in [0, 1];
     /// default 0: no pose check).
     pub pose_weight: f64,
+    /// Weight of geometric verification (`keycomp_retrieval::MatchParams::verify_weight`, in
+    /// [0, 1]); `None` (the default): automatic, by whether A has a boundary
+    /// (`keycomp_retrieval::verify_weight_for`).
+    pub verify_weight: Option<f64>,
 }
+
+pub use keycomp_retrieval::verify_weight_for;
 
 /// Checks a pose weight ([`MatchParams::pose_weight`]): a number in [0, 1].
 pub fn check_pose_weight(weight: f64) -> Result<f64, Error> {
+    check_weight("pose", weight)
+}
+
+/// Checks a verification weight ([`MatchParams::verify_weight`]): `None` (automatic, see
+/// `keycomp_retrieval::verify_weight_for`) or a number in [0, 1].
+pub fn check_verify_weight(weight: Option<f64>) -> Result<Option<f64>, Error> {
+    weight.map(|w| check_weight("verification", w)).transpose()
+}
+
+fn check_weight(what: &str, weight: f64) -> Result<f64, Error> {
     if (0.0..=1.0).contains(&weight) {
         Ok(weight)
     } else {
         Err(Error::Invalid(format!(
-            "the pose weight must be between 0 and 1, got {weight}"
+            "the {what} weight must be between 0 and 1, got {weight}"
         )))
     }
 }
@@ -106,6 +125,7 @@ pub fn match_analysed(
         scale: m.scale,
         rejected: m.rejected,
         pose: m.pose,
+        verified: m.verified,
         matches: m
             .matches
             .iter()
@@ -145,11 +165,13 @@ pub fn match_files(
     options: &MatchOptions,
 ) -> Result<(Analysed, Analysed, MatchResult), Error> {
     let pose_weight = check_pose_weight(options.pose_weight)?;
+    let verify_weight = check_verify_weight(options.verify_weight)?;
     let profile = match_profile(options, b)?;
     let (x, y) = rayon::join(|| analyse(a, &profile), || analyse(b, &profile));
     let (x, y) = (x?, y?);
     let params = MatchParams {
         pose_weight,
+        verify_weight: keycomp_retrieval::verify_weight_for(x.boundary_vertices, verify_weight),
         ..MatchParams::default()
     };
     let m = match_analysed(

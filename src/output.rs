@@ -48,6 +48,17 @@ pub fn unit_weight(s: &str) -> Result<f64, String> {
     }
 }
 
+/// Parses `auto` (`None`) or a weight between 0 and 1 (clap's value parser of `--verify`).
+pub fn auto_or_unit_weight(s: &str) -> Result<Option<f64>, String> {
+    if s.trim().eq_ignore_ascii_case("auto") {
+        Ok(None)
+    } else {
+        unit_weight(s)
+            .map(Some)
+            .map_err(|_| format!("'{s}': expected 'auto' or a number between 0 and 1"))
+    }
+}
+
 /// Writes `bytes` to the file `path` through [`keycomp_mesh::io::output`]: atomically, symbolic
 /// links followed, a FIFO or device written in place, a directory or a missing folder refused.
 pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<()> {

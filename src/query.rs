@@ -32,6 +32,12 @@ pub struct Args {
     /// pose. 0 (default) ranks independently of pose, as classes of articulated shapes need.
     #[arg(long, value_name = "W", default_value_t = 0.0, value_parser = crate::output::unit_weight)]
     pub pose: f64,
+    /// Weight of geometric verification, 0–1, or auto (the default: 0.5 for a query with a
+    /// boundary, a fragment or a scan; 0 for a closed shape): each shape's score is scaled by
+    /// 1 − W·(1 − f), f the share of the query's surface that lies on the shape once aligned
+    /// by the matched parts, so a fragment's exact source ranks first.
+    #[arg(long, value_name = "W|auto", default_value = "auto", value_parser = crate::output::auto_or_unit_weight)]
+    pub verify: Option<f64>,
     #[command(flatten)]
     pub detect: DetectArgs,
     /// Print JSON.
@@ -51,6 +57,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
     }
     let mut searcher = Searcher::open(&args.index, args.detect.explicit().as_ref())?;
     searcher.set_pose_weight(args.pose)?;
+    searcher.set_verify_weight(args.verify)?;
     let reader = searcher.reader();
     let (q, ranked, answer) = searcher.query_full(&args.mesh, args.k)?;
     let QueryTimings {

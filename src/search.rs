@@ -82,6 +82,7 @@ pub struct Searcher {
     profile: Profile,
     open_ms: f64,
     pose_weight: f64,
+    verify_weight: Option<f64>,
 }
 
 impl Searcher {
@@ -108,7 +109,18 @@ impl Searcher {
             profile,
             open_ms: t.elapsed().as_secs_f64() * 1e3,
             pose_weight: 0.0,
+            verify_weight: None,
         })
+    }
+
+    /// Sets how much geometric verification weighs in the ranking
+    /// (`keycomp_retrieval::MatchParams::verify_weight`, in [0, 1]); `None`, the default:
+    /// automatic, by whether the query has a boundary (`keycomp_retrieval::verify_weight_for`).
+    /// An index written by format 1 to 3 has no surface samples: its shapes are ranked without
+    /// verification.
+    pub fn set_verify_weight(&mut self, weight: Option<f64>) -> Result<(), Error> {
+        self.verify_weight = crate::matching::check_verify_weight(weight)?;
+        Ok(())
     }
 
     /// Sets how much the pose check weighs in the ranking (`keycomp_retrieval::MatchParams::
@@ -158,6 +170,10 @@ impl Searcher {
         let (descriptors, layout) = query.view();
         let params = query.match_params(&MatchParams {
             pose_weight: self.pose_weight,
+            verify_weight: keycomp_retrieval::verify_weight_for(
+                query.boundary_vertices,
+                self.verify_weight,
+            ),
             ..MatchParams::default()
         });
         let areas = query.areas(&params);
@@ -167,6 +183,7 @@ impl Searcher {
             layout,
             areas: &areas,
             centres: &centres,
+            sample: query.sample(&params),
         };
         Ok(rank(&self.reader, view, k, &params)?)
     }

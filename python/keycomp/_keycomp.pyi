@@ -73,9 +73,12 @@ class MatchResult:
     rejected: int
     scale: Optional[float]
     pose: Optional[float]
+    verified: Optional[float]
 
-def match(a: MeshLike, b: MeshLike, pose: float = 0.0) -> MatchResult:
-    """Part-to-part matching of two meshes, as `keycomp match A B [--pose W]`."""
+def match(
+    a: MeshLike, b: MeshLike, pose: float = 0.0, verify: Optional[float] = None
+) -> MatchResult:
+    """Part-to-part matching of two meshes, as `keycomp match A B [--pose W] [--verify W]`."""
 
 class Index:
     def __init__(self, path: Union[str, os.PathLike]) -> None: ...
@@ -93,5 +96,7 @@ class Index:
     def merge(self, sources: Sequence[Union[str, os.PathLike]]) -> int:
         """Merges indexes built apart into this one (one commit); returns shapes added."""
     def remove(self, paths: Sequence[Union[str, os.PathLike]]) -> int: ...
-    def query(self, mesh: MeshLike, k: int = 10, pose: float = 0.0) -> list[QueryResult]: ...
+    def query(
+        self, mesh: MeshLike, k: int = 10, pose: float = 0.0, verify: Optional[float] = None
+    ) -> list[QueryResult]: ...
     def __len__(self) -> int: ...

@@ -7,7 +7,9 @@ use std::path::PathBuf;
 
 use keycomp_components::{Detection, Preset, detect as detect_components};
 use keycomp_core::collection::{self, AddOptions};
-use keycomp_core::matching::{MatchParams, check_pose_weight, match_analysed};
+use keycomp_core::matching::{
+    MatchParams, check_pose_weight, check_verify_weight, match_analysed, verify_weight_for,
+};
 use keycomp_core::options::DetectOptions;
 use keycomp_core::search::{Hit, Searcher};
 use keycomp_core::{Analysed, Profile, analyse, analyse_mesh};
@@ -368,6 +370,7 @@ struct MatchResult {
     rejected: usize,
     scale: Option<f64>,
     pose: Option<f64>,
+    verified: Option<f64>,
 }
 
 #[pymethods]
@@ -389,24 +392,29 @@ fn analyse_input(input: MeshInput, profile: &Profile) -> PyResult<Analysed> {
 }
 
 /// Matches two meshes part to part, as `keycomp match A B`; `pose` weighs the pose check as
-/// `keycomp match --pose` does (0–1, default 0).
-#[pyfunction(name = "match", signature = (a, b, pose=0.0))]
+/// `keycomp match --pose` does (0–1, default 0), `verify` geometric verification as
+/// `keycomp match --verify` does (0–1, or None, the default: automatic).
+#[pyfunction(name = "match", signature = (a, b, pose=0.0, verify=None))]
 fn match_meshes(
     py: Python<'_>,
     a: &Bound<'_, PyAny>,
     b: &Bound<'_, PyAny>,
     pose: f64,
+    verify: Option<f64>,
 ) -> PyResult<MatchResult> {
     let pose = check_pose_weight(pose).map_err(analysis_err)?;
+    let verify = check_verify_weight(verify).map_err(analysis_err)?;
     let (a, b) = (mesh_input(a, None)?, mesh_input(b, None)?);
     py.detach(|| {
         let profile = Profile::current(&DetectOptions::default().retrieval_params());
         let (a, b) = rayon::join(|| analyse_input(a, &profile), || analyse_input(b, &profile));
+        let (a, b) = (a?, b?);
         let params = MatchParams {
             pose_weight: pose,
+            verify_weight: verify_weight_for(a.boundary_vertices, verify),
             ..MatchParams::default()
         };
-        let m = match_analysed(&a?, &b?, ("a", "b"), &params);
+        let m = match_analysed(&a, &b, ("a", "b"), &params);
         Ok(MatchResult {
             score: m.score,
             matches: m
@@ -421,6 +429,7 @@ fn match_meshes(
             rejected: m.rejected,
             scale: m.scale,
             pose: m.pose,
+            verified: m.verified,
         })
     })
 }
@@ -509,14 +518,17 @@ impl Index {
     }
 
     /// The `k` best shapes for a mesh (a path, (vertices, faces), or a trimesh), best first;
-    /// `pose` weighs the pose check as `keycomp query --pose` does (0–1, default 0).
-    #[pyo3(signature = (mesh, k=10, pose=0.0))]
+    /// `pose` weighs the pose check as `keycomp query --pose` does (0–1, default 0), `verify`
+    /// geometric verification as `keycomp query --verify` does (0–1, or None, the default:
+    /// automatic).
+    #[pyo3(signature = (mesh, k=10, pose=0.0, verify=None))]
     fn query(
         &self,
         py: Python<'_>,
         mesh: &Bound<'_, PyAny>,
         k: usize,
         pose: f64,
+        verify: Option<f64>,
     ) -> PyResult<Vec<QueryResult>> {
         if k == 0 {
             return Err(PyValueError::new_err("k must be at least 1"));
@@ -525,6 +537,7 @@ impl Index {
         py.detach(|| {
             let mut searcher = Searcher::open(&self.path, None).map_err(analysis_err)?;
             searcher.set_pose_weight(pose).map_err(analysis_err)?;
+            searcher.set_verify_weight(verify).map_err(analysis_err)?;
             let answer = match input {
                 MeshInput::Path(p) => searcher.query(&p, k),
                 MeshInput::Mesh(m) => searcher.query_mesh("query", m, k),

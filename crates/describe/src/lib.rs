@@ -195,6 +195,12 @@ pub const MAX_PATCHES_PER_LEVEL: usize = 64;
 /// Most smoothing iterations [`describe_with`] accepts.
 pub const MAX_SMOOTHING_ITERATIONS: usize = 1000;
 
+/// Points of a description's surface sample ([`ShapeDescription::sample`]).
+pub const SAMPLE_POINTS: usize = 512;
+
+/// Seed of the surface sample's random stream.
+pub const SAMPLE_SEED: u64 = 0x005a_3b1e;
+
 /// Layout entry of a pair of parts without a meaningful distance (the whole-surface part).
 pub const NO_DISTANCE: f32 = -1.0;
 
@@ -257,6 +263,11 @@ pub struct ShapeDescription {
     /// (symmetrised; pairs on different connected pieces get twice the largest finite value;
     /// pairs with the whole-surface part get [`NO_DISTANCE`]).
     pub layout: Vec<f32>,
+    /// [`SAMPLE_POINTS`] points drawn uniformly by area on the described surface, in the
+    /// frame and length unit of the parts' positions (for geometric verification: aligning a
+    /// query onto a shape and measuring how much of it lies on the shape); empty for a mesh
+    /// without area.
+    pub sample: Vec<[f32; 3]>,
 }
 
 impl ShapeDescription {
@@ -667,7 +678,27 @@ pub fn describe_with(
         }
         layout[i * m + i] = 0.0;
     }
-    Ok(ShapeDescription { components, layout })
+    let sample = surface_sample(&surface.mesh);
+    Ok(ShapeDescription {
+        components,
+        layout,
+        sample,
+    })
+}
+
+/// [`SAMPLE_POINTS`] points uniform by area on `mesh` (ChaCha8 seeded with [`SAMPLE_SEED`]: the
+/// same mesh gives the same points); none when the mesh has no area.
+fn surface_sample(mesh: &Mesh) -> Vec<[f32; 3]> {
+    let Some(sampler) = keycomp_mesh::sample::AreaSampler::new(mesh) else {
+        return Vec::new();
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(SAMPLE_SEED);
+    (0..SAMPLE_POINTS)
+        .map(|_| {
+            let (p, _) = sampler.sample(&mut rng);
+            [p.x as f32, p.y as f32, p.z as f32]
+        })
+        .collect()
 }
 
 /// The descriptor of one part, its geodesic radius and its area (`d`: distances from its

@@ -54,14 +54,16 @@ pub use reader::{
     ComponentMatch, IVF_MIN_COMPONENTS, IndexReader, IndexStats, IndexedShape, SEARCH_CACHE_NAME,
     SearchMode, SearchSource, squared_distance,
 };
-pub use record::{ComponentRecord, ContentHash, ShapeId, ShapeRecord, canonical_path};
+pub use record::{
+    ComponentRecord, ContentHash, MAX_SAMPLE_POINTS, ShapeId, ShapeRecord, canonical_path,
+};
 pub use verify::{VerifyReport, verify};
 pub use writer::{AddOutcome, AddSummary, IndexWriter, MergeSummary};
 
 /// The on-disk format version this build writes. Bumped on any incompatible change; files of a
 /// version outside [`OLDEST_READABLE_VERSION`]`..=FORMAT_VERSION` are refused with
 /// [`IndexError::Incompatible`].
-pub const FORMAT_VERSION: u32 = 3;
+pub const FORMAT_VERSION: u32 = 4;
 
 /// Oldest format version this build still reads (version 1 has no manifest profile; see
 /// `index/README.md`, *Versions*).

@@ -114,6 +114,36 @@ pub(crate) struct ShapeRecordV2<const D: usize> {
     layout: Vec<f32>,
 }
 
+/// [`ShapeRecord`] as format 3 stores it (without [`ShapeRecord::sample`]).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub(crate) struct ShapeRecordV3<const D: usize> {
+    path: PathBuf,
+    canonical_path: PathBuf,
+    content_hash: ContentHash,
+    vertex_count: u32,
+    face_count: u32,
+    surface_area: f64,
+    components: Vec<ComponentRecord<D>>,
+    layout: Vec<f32>,
+}
+
+impl<const D: usize> From<ShapeRecordV3<D>> for ShapeRecord<D> {
+    fn from(r: ShapeRecordV3<D>) -> Self {
+        ShapeRecord {
+            path: r.path,
+            canonical_path: r.canonical_path,
+            content_hash: r.content_hash,
+            vertex_count: r.vertex_count,
+            face_count: r.face_count,
+            surface_area: r.surface_area,
+            components: r.components,
+            layout: r.layout,
+            sample: Vec::new(),
+            boundary_vertices: 0,
+        }
+    }
+}
+
 impl<const D: usize> From<ShapeRecordV2<D>> for ShapeRecord<D> {
     fn from(r: ShapeRecordV2<D>) -> Self {
         ShapeRecord {
@@ -135,6 +165,8 @@ impl<const D: usize> From<ShapeRecordV2<D>> for ShapeRecord<D> {
                 })
                 .collect(),
             layout: r.layout,
+            sample: Vec::new(),
+            boundary_vertices: 0,
         }
     }
 }
@@ -160,7 +192,19 @@ pub struct ShapeRecord<const D: usize> {
     /// Pairwise geodesic distances between component centres, row-major m×m with
     /// m = `components.len()`, in normalised units (shape area 1). Finite.
     pub layout: Vec<f32>,
+    /// Points uniform by area on the described surface, in the frame and length unit of the
+    /// components' centres (for geometric verification); empty in records written by formats
+    /// 1 to 3, which did not store it. At most [`MAX_SAMPLE_POINTS`], finite.
+    #[serde(default)]
+    pub sample: Vec<[f32; 3]>,
+    /// Vertices on the mesh's boundary: 0 for a closed surface, more for a fragment or a scan
+    /// (0 in records written by formats 1 to 3, which did not store it).
+    #[serde(default)]
+    pub boundary_vertices: u32,
 }
+
+/// Most points a record's [`ShapeRecord::sample`] may hold.
+pub const MAX_SAMPLE_POINTS: usize = 4096;
 
 impl<const D: usize> ShapeRecord<D> {
     /// Layout distance between components `i` and `j`, if both exist.
@@ -214,6 +258,25 @@ impl<const D: usize> ShapeRecord<D> {
         }
         if let Some(i) = self.layout.iter().position(|v| !v.is_finite()) {
             return Err(bad(format!("layout value {i} is not finite")));
+        }
+        if self.boundary_vertices > self.vertex_count {
+            return Err(bad(format!(
+                "{} boundary vertices, the mesh {} vertices",
+                self.boundary_vertices, self.vertex_count
+            )));
+        }
+        if self.sample.len() > MAX_SAMPLE_POINTS {
+            return Err(bad(format!(
+                "a surface sample of {} points (at most {MAX_SAMPLE_POINTS})",
+                self.sample.len()
+            )));
+        }
+        if let Some(i) = self
+            .sample
+            .iter()
+            .position(|p| !p.iter().all(|v| v.is_finite()))
+        {
+            return Err(bad(format!("surface sample point {i} is not finite")));
         }
         for (c, comp) in self.components.iter().enumerate() {
             if let Some(i) = comp.descriptor.iter().position(|v| !v.is_finite()) {

@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{CorruptKind, IndexError, Result};
 use crate::file::{self, KIND_SEGMENT};
 use crate::manifest::{Manifest, SegmentEntry, bincode_config, decode_bounded, segment_file_name};
-use crate::record::{ContentHash, ShapeId, ShapeRecord, ShapeRecordV2};
+use crate::record::{ContentHash, ShapeId, ShapeRecord, ShapeRecordV2, ShapeRecordV3};
 use crate::{FORMAT_VERSION, MANIFEST_NAME};
 
 /// Catalogue entry of one shape in a segment head.
@@ -208,7 +208,7 @@ pub fn read<const D: usize>(
 /// Decodes the records that follow `head` in a segment payload (`rest`) and checks them
 /// against the head and the component count `expected` (the segment's entry's; `None` when
 /// there is no entry to check against), as format `version` stores them (formats 1 and 2
-/// without the parts' centre positions).
+/// without the parts' centre positions, 1 to 3 without the surface sample).
 fn decode_records<const D: usize>(
     path: &Path,
     rest: &[u8],
@@ -219,6 +219,9 @@ fn decode_records<const D: usize>(
     let malformed = |msg: String| IndexError::corrupt(path, CorruptKind::Malformed(msg));
     let decoded = if version <= 2 {
         decode_bounded::<Vec<ShapeRecordV2<D>>>(rest)
+            .map(|(r, used)| (r.into_iter().map(ShapeRecord::from).collect(), used))
+    } else if version == 3 {
+        decode_bounded::<Vec<ShapeRecordV3<D>>>(rest)
             .map(|(r, used)| (r.into_iter().map(ShapeRecord::from).collect(), used))
     } else {
         decode_bounded(rest)
@@ -426,6 +429,8 @@ mod tests {
                 want += 4 * D + 4 + 4 + 4 + 1 + c.centre.map_or(0, |_| 12);
             }
             want += 8 + 4 * r.layout.len();
+            want += 8 + 12 * r.sample.len(); // the surface sample: count, then three f32 each
+            want += 4; // boundary vertices
         }
         assert_eq!(bytes.len(), want + file::FOOTER_LEN);
         // The head starts with dim (u32 LE) and the segment number (u64 LE).

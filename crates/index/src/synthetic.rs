@@ -25,7 +25,7 @@ pub fn record_version<const D: usize>(seed: u64, i: u64, version: u32) -> ShapeR
         .wrapping_add(u64::from(version));
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ stream);
     let m = rng.random_range(4..=8usize);
-    let components = (0..m)
+    let components: Vec<ComponentRecord<D>> = (0..m)
         .map(|_| {
             let mut c = ComponentRecord {
                 descriptor: std::array::from_fn(|_| rng.random::<f32>()),
@@ -63,9 +63,17 @@ pub fn record_version<const D: usize>(seed: u64, i: u64, version: u32) -> ShapeR
         vertex_count: rng.random_range(1_000..100_000),
         face_count: rng.random_range(2_000..200_000),
         surface_area: rng.random_range(0.1..100.0),
+        // a small sample from the centres (no extra draw: the stream stays as it was)
+        sample: components_centres(&components),
+        boundary_vertices: (i % 3) as u32,
         components,
         layout,
     }
+}
+
+/// The centres of `components` that have one, as a surface sample.
+fn components_centres<const D: usize>(components: &[ComponentRecord<D>]) -> Vec<[f32; 3]> {
+    components.iter().filter_map(|c| c.centre).collect()
 }
 
 /// Records `range` of `seed` (version 0).

@@ -61,8 +61,35 @@ fn format_v3_fixture_still_opens() {
     );
 }
 
+#[test]
+fn format_v4_fixture_still_opens() {
+    let (r, got) = open_fixture(4);
+    assert_eq!(r.profile(), FIXTURE_PROFILE);
+    assert!(
+        got.iter().all(|s| !s.sample.is_empty()),
+        "format 4 stores every shape's surface sample"
+    );
+    assert!(got.iter().any(|s| s.boundary_vertices > 0));
+}
+
+/// Formats 1 to 3 stored no surface sample and no boundary count: their records read with
+/// none.
+#[test]
+fn older_formats_read_without_samples() {
+    for v in 1..=3 {
+        let r = IndexReader::<D>::open(fixture(v)).unwrap();
+        assert!(
+            r.shapes()
+                .iter()
+                .all(|s| s.record.sample.is_empty() && s.record.boundary_vertices == 0),
+            "format {v}"
+        );
+    }
+}
+
 /// Formats 1 and 2 stored no centre positions: their records read with none, and an add to a
-/// version-2 index writes a version-3 segment beside the old ones, both read back.
+/// version-2 index writes a segment of the current version beside the old ones, both read
+/// back.
 #[test]
 fn older_formats_read_without_centres_and_take_new_segments() {
     for v in [1, 2] {

@@ -28,6 +28,7 @@ fn view<'a>(descriptors: &'a [[f32; DIM]], layout: &'a [f32]) -> ShapeView<'a> {
         layout,
         areas: &[],
         centres: &[],
+        sample: &[],
     }
 }
 

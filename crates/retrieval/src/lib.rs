@@ -36,9 +36,21 @@
 //!    was compared with that agree and β the weight: a fragment's exact source (or a shape in
 //!    the same pose) keeps its score, the same parts bent another way lose up to β of it. Only
 //!    pairs the layout compares take part (not the whole-surface part).
-//! 6. Score: the kept similarities, each times its query part's weight (and its pose factor),
+//! 6. Geometric verification (off by default in this crate, [`MatchParams::verify_weight`] >
+//!    0; keycomp's `query`, `match` and `bench retrieval` turn it on for a query with a
+//!    boundary, [`verify_weight_for`]; when both shapes give their parts' positions and a
+//!    surface sample, [`ShapeView::sample`]): the query is aligned onto the target from
+//!    tentative pairs of parts (each query part with its [`verify::PAIRS_PER_PART`] nearest
+//!    target parts by descriptor) and refined on the surface samples ([`verify`]). Assigned
+//!    pairs (step 2) whose centres land together under that alignment are kept even when the
+//!    layout or size check dropped them (a scan's holes and separate pieces lengthen its
+//!    geodesics, so its layout disagrees with its own source's), and the score is multiplied
+//!    by `1 − γ·(1 − f)`, f the share of the query's sample within
+//!    [`MatchParams::verify_tolerance`] of the target's and γ the weight.
+//! 7. Score: the kept similarities, each times its query part's weight (and its pose factor),
 //!    summed and divided by the sum of the weights of all query parts, in [0, 1]: 1 when every
-//!    query part has an identical partner in a consistent layout. Dividing by the query's
+//!    query part has an identical partner in a consistent layout (times the verification
+//!    factor of step 6). Dividing by the query's
 //!    parts (not the target's) lets a fragment match the whole shape it was cut from. [`match_shapes`] weighs
 //!    every part 1; [`rank`] weighs a part by its inverse frequency in the index
 //!    ([`idf_weights`]), so parts that many shapes have count less.
@@ -46,10 +58,11 @@
 //! Cost: O(m³) for m components (m is small, typically under 20), O(k²) for k matches.
 
 mod query;
+pub mod verify;
 
 pub use query::{
     CANDIDATES_PER_COMPONENT, MATCHED_CANDIDATES, Ranked, idf_weights, rank, record_areas,
-    record_centres,
+    record_centres, record_sample,
 };
 
 use keycomp_describe::Descriptor;
@@ -101,6 +114,16 @@ pub struct MatchParams {
     /// disagree after scaling for the pose check to count the pair as agreeing (default
     /// 1.25; 1.15 and 1.4 gave about the same on TOSCA).
     pub pose_tolerance: f64,
+    /// How much geometric verification weighs (step 6 of *Steps*, [`verify`]), in [0, 1]; 0
+    /// turns it off. Each candidate's score is multiplied by `1 − γ·(1 − f)`, f the share of
+    /// the query's surface sample that lies on the target's once aligned. Default 0 here;
+    /// keycomp's `query`, `match` and `bench retrieval` use [`verify_weight_for`]: 0.5 for a
+    /// query with a boundary (a fragment, a scan), 0 for a closed shape.
+    pub verify_weight: f64,
+    /// Distance (in the target's length unit: unit area when scale-free) within which a
+    /// query sample point counts as lying on the target's surface (default 0.04, about twice
+    /// the mean spacing of a 512-point sample on unit area).
+    pub verify_tolerance: f64,
 }
 
 impl Default for MatchParams {
@@ -113,7 +136,27 @@ impl Default for MatchParams {
             file_units: false,
             pose_weight: 0.0,
             pose_tolerance: 1.25,
+            verify_weight: 0.0,
+            verify_tolerance: 0.04,
         }
+    }
+}
+
+/// Verification's weight ([`MatchParams::verify_weight`]) for a query with a boundary (a
+/// fragment, a scan) when none is given: see [`verify_weight_for`].
+pub const FRAGMENT_VERIFY_WEIGHT: f64 = 0.5;
+
+/// The verification weight for a query with `boundary_vertices` vertices on its boundary:
+/// `weight` when given, else [`FRAGMENT_VERIFY_WEIGHT`] for a query with a boundary and 0 for a
+/// closed one. A fragment or a scan is a piece of one surface in one pose, and where it lies
+/// on a shape is what identifies its source; a closed shape is sought by its kind, in any
+/// pose (on FAUST, whose classes are subjects in ten poses, verification of whole shapes
+/// lowered mAP from 0.607 to 0.423: BENCHMARKS.md, *Geometric verification*).
+pub fn verify_weight_for(boundary_vertices: usize, weight: Option<f64>) -> f64 {
+    match weight {
+        Some(w) => w,
+        None if boundary_vertices > 0 => FRAGMENT_VERIFY_WEIGHT,
+        None => 0.0,
     }
 }
 
@@ -133,8 +176,11 @@ pub struct ShapeView<'a> {
     /// factor); empty: no area check.
     pub areas: &'a [f32],
     /// Each part's centre position in the layout's unit (any rigid motion of the whole
-    /// shape); empty: no pose check.
+    /// shape); empty: no pose check and no verification.
     pub centres: &'a [[f32; 3]],
+    /// Points on the surface, in the frame and unit of `centres` (`ShapeDescription::sample`
+    /// of keycomp-describe); empty: no verification.
+    pub sample: &'a [[f32; 3]],
 }
 
 impl ShapeView<'_> {
@@ -181,6 +227,11 @@ pub struct ShapeMatch {
     /// whose straight-line distances agree; `None` when it compared none (off, no centres,
     /// or fewer than three matches).
     pub pose: Option<f64>,
+    /// Geometric verification's fitness (see [`verify`]): the share of the query's surface
+    /// sample on the target's surface once aligned; `None` when it did not run (off, no
+    /// sample or centres, fewer than three matches).
+    #[serde(default)]
+    pub verified: Option<f64>,
 }
 
 /// The median of `v` (the mean of the two middle values for an even count), reordering `v`.
@@ -288,6 +339,7 @@ pub(crate) fn match_distances(
         scale: None,
         rejected: 0,
         pose: None,
+        verified: None,
     };
     if mq == 0 || mt == 0 {
         return empty;
@@ -421,6 +473,51 @@ pub(crate) fn match_distances(
             keep
         });
     }
+    // geometric verification: the query aligned onto the target by its parts' centres and
+    // refined on their surfaces; assigned pairs that land together under that alignment are
+    // kept too, whatever the layout check said
+    let gamma = if params.verify_weight.is_finite() {
+        params.verify_weight.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let verified = if gamma > 0.0 {
+        // tentative pairs: each query part with its nearest target parts in descriptor space
+        let mut tentative: Vec<(usize, usize, f32)> = Vec::new();
+        let mut row: Vec<(f32, usize)> = Vec::with_capacity(mt);
+        for i in 0..mq {
+            row.clear();
+            row.extend((0..mt).map(|a| (d[i * mt + a], a)).filter(|x| x.0 < max_d));
+            let k = row.len().min(verify::PAIRS_PER_PART);
+            if k > 0 {
+                row.select_nth_unstable_by(k - 1, |x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+                tentative.extend(row[..k].iter().map(|&(dd, a)| (i, a, dd)));
+            }
+        }
+        verify::fitness(
+            query,
+            target,
+            &tentative,
+            params.file_units.then_some(1.0),
+            params.verify_tolerance,
+        )
+    } else {
+        None
+    };
+    if let Some(v) = &verified {
+        for (a, m) in matches.iter().enumerate() {
+            if alive.contains(&a) {
+                continue;
+            }
+            if let (Some(q), Some(t)) = (query.centres.get(m.query), target.centres.get(m.target))
+                && v.agrees(q, t)
+            {
+                alive.push(a);
+                rejected -= 1;
+            }
+        }
+        alive.sort_unstable();
+    }
     if alive.len() < k0 {
         let keep: Vec<ComponentMatch> = alive.iter().map(|&a| matches[a]).collect();
         matches = keep;
@@ -505,7 +602,14 @@ pub(crate) fn match_distances(
     } else {
         0.0
     };
+    let fitness = verified.map(|v| v.fitness);
+    let score = if gamma > 0.0 {
+        score * (1.0 - gamma * (1.0 - fitness.unwrap_or(0.0)))
+    } else {
+        score
+    };
     ShapeMatch {
+        verified: fitness,
         pose: agreement,
         matches,
         score,
@@ -541,6 +645,7 @@ mod tests {
             layout: &l,
             areas: &[],
             centres: &[],
+            sample: &[],
         };
         let m = match_shapes(v, v, &MatchParams::default());
         assert_eq!(m.matches.len(), 5);
@@ -563,12 +668,14 @@ mod tests {
                 layout: &lq,
                 areas: &[],
                 centres: &[],
+                sample: &[],
             },
             ShapeView {
                 descriptors: &dt,
                 layout: &lt,
                 areas: &[],
                 centres: &[],
+                sample: &[],
             },
             &MatchParams::default(),
         );
@@ -592,12 +699,14 @@ mod tests {
                 layout: &lq,
                 areas: &[],
                 centres: &[],
+                sample: &[],
             },
             ShapeView {
                 descriptors: &ds,
                 layout: &lt,
                 areas: &[],
                 centres: &[],
+                sample: &[],
             },
             &MatchParams::default(),
         );
@@ -627,12 +736,14 @@ mod tests {
                     layout: &lq,
                     areas: &aq,
                     centres: &[],
+                    sample: &[],
                 },
                 ShapeView {
                     descriptors: &ds,
                     layout: &lt,
                     areas: at,
                     centres: &[],
+                    sample: &[],
                 },
                 params,
             )
@@ -664,12 +775,14 @@ mod tests {
                 layout: &lp,
                 areas: &[],
                 centres: &[],
+                sample: &[],
             },
             ShapeView {
                 descriptors: &ds,
                 layout: &l,
                 areas: &[],
                 centres: &[],
+                sample: &[],
             },
             &MatchParams::default(),
         );
@@ -683,12 +796,14 @@ mod tests {
                 layout: &lp,
                 areas: &[],
                 centres: &[],
+                sample: &[],
             },
             ShapeView {
                 descriptors: &ds,
                 layout: &l,
                 areas: &[],
                 centres: &[],
+                sample: &[],
             },
             &MatchParams::default(),
         );
@@ -710,6 +825,7 @@ mod tests {
             layout: &l,
             areas: &[],
             centres: &[],
+            sample: &[],
         };
         let m = match_shapes(v, v, &MatchParams::default());
         assert_eq!(m.matches.len(), 6);
@@ -740,8 +856,8 @@ mod tests {
             let (lq, lt) = (layout(mq), layout(mt));
             let weights: Vec<f64> = (0..mq).map(|_| rng.random_range(0.0..2.0)).collect();
             let params = MatchParams::default();
-            let q = ShapeView { descriptors: &dq, layout: &lq, areas: &[], centres: &[] };
-            let t = ShapeView { descriptors: &dt, layout: &lt, areas: &[], centres: &[] };
+            let q = ShapeView { descriptors: &dq, layout: &lq, areas: &[], centres: &[], sample: &[] };
+            let t = ShapeView { descriptors: &dt, layout: &lt, areas: &[], centres: &[], sample: &[] };
             let m = match_weighted(q, t, &params, &weights);
             let d = distances(&dq, &dt);
             let bound = score_bound(mq, mt, &d, &params, &weights);
@@ -761,12 +877,14 @@ mod tests {
                 layout: &l,
                 areas: &[],
                 centres: &[],
+                sample: &[],
             },
             ShapeView {
                 descriptors: &target,
                 layout: &lt,
                 areas: &[],
                 centres: &[],
+                sample: &[],
             },
         );
         // parts 0 and 1 match exactly, 2 and 3 have no partner
@@ -788,12 +906,14 @@ mod tests {
             layout: &[],
             areas: &[],
             centres: &[],
+            sample: &[],
         };
         let v = ShapeView {
             descriptors: &ds,
             layout: &l,
             areas: &[],
             centres: &[],
+            sample: &[],
         };
         assert_eq!(match_shapes(e, v, &MatchParams::default()).score, 0.0);
         assert_eq!(match_shapes(v, e, &MatchParams::default()).score, 0.0);
@@ -819,6 +939,7 @@ mod tests {
             layout: &lq,
             areas: &[],
             centres: &straight,
+            sample: &[],
         };
         let t = |c: &[[f32; 3]], params: &MatchParams| {
             match_shapes(
@@ -828,6 +949,7 @@ mod tests {
                     layout: &lt,
                     areas: &[],
                     centres: c,
+                    sample: &[],
                 },
                 params,
             )

@@ -98,6 +98,7 @@ pub fn rank(
                         scale: None,
                         rejected: 0,
                         pose: None,
+                        verified: None,
                     },
                 })
             }),
@@ -179,6 +180,7 @@ fn match_candidates(
                         layout: &c.rec.layout,
                         areas: &c.areas,
                         centres: &c.centres,
+                        sample: record_sample(c.rec, params),
                     },
                     &c.d,
                     params,
@@ -217,12 +219,13 @@ pub fn record_areas(rec: &keycomp_index::ShapeRecord<DIM>, params: &MatchParams)
 }
 
 /// The part centres of an indexed shape as [`ShapeView::centres`] wants them; empty when the
-/// pose check is off or the record has none (written by index format 1 or 2).
+/// pose check and verification are off or the record has none (written by index format 1 or
+/// 2).
 pub fn record_centres(
     rec: &keycomp_index::ShapeRecord<DIM>,
     params: &MatchParams,
 ) -> Vec<[f32; 3]> {
-    if params.pose_weight <= 0.0 {
+    if params.pose_weight <= 0.0 && params.verify_weight <= 0.0 {
         return Vec::new();
     }
     rec.components
@@ -230,6 +233,18 @@ pub fn record_centres(
         .map(|c| c.centre)
         .collect::<Option<Vec<_>>>()
         .unwrap_or_default()
+}
+
+/// The surface sample of an indexed shape as [`ShapeView::sample`] wants it; empty when
+/// verification is off (or the record has none: index formats 1 to 3).
+pub fn record_sample<'a>(
+    rec: &'a keycomp_index::ShapeRecord<DIM>,
+    params: &MatchParams,
+) -> &'a [[f32; 3]] {
+    if params.verify_weight <= 0.0 {
+        return &[];
+    }
+    &rec.sample
 }
 
 /// Candidate shapes and their votes: for each query part, the similarity

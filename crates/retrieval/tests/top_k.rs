@@ -46,6 +46,8 @@ fn records(rng: &mut ChaCha8Rng, classes: &[Vec<Descriptor>], n: usize) -> Vec<S
                 surface_area: 1.0,
                 components,
                 layout,
+                sample: Vec::new(),
+                boundary_vertices: 0,
             }
         })
         .collect()
@@ -82,6 +84,7 @@ fn pruned_top_k_equals_the_full_ranking() {
             layout: &src.layout,
             areas: &areas,
             centres: &[],
+            sample: &[],
         };
         let full = rank(&reader, view, 10_000, &params).expect("rank");
         assert!(full.len() > 10, "more candidates than the largest k");
