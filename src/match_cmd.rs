@@ -40,7 +40,7 @@ pub struct Args {
     /// 1 − W·(1 − f), f the share of the query's surface that lies on the shape once aligned
     /// by the matched parts, so a fragment's exact source ranks first.
     #[arg(long, value_name = "W|auto", default_value = "auto", value_parser = crate::output::auto_or_unit_weight)]
-    pub verify: Option<f64>,
+    pub verify: crate::output::AutoWeight,
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
@@ -92,7 +92,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
         detect: args.detect.explicit(),
         units: args.units.units()?.unwrap_or_default(),
         pose_weight: args.pose,
-        verify_weight: args.verify,
+        verify_weight: args.verify.0,
     };
     let (a, b, m) = match_files(&args.a, &args.b, &options)?;
     let match_ms = m.timings_ms.matching;

@@ -48,13 +48,17 @@ pub fn unit_weight(s: &str) -> Result<f64, String> {
     }
 }
 
-/// Parses `auto` (`None`) or a weight between 0 and 1 (clap's value parser of `--verify`).
-pub fn auto_or_unit_weight(s: &str) -> Result<Option<f64>, String> {
+/// A weight between 0 and 1, or `auto` (`None`): the value of `--verify`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AutoWeight(pub Option<f64>);
+
+/// Parses `auto` or a weight between 0 and 1 (clap's value parser of `--verify`).
+pub fn auto_or_unit_weight(s: &str) -> Result<AutoWeight, String> {
     if s.trim().eq_ignore_ascii_case("auto") {
-        Ok(None)
+        Ok(AutoWeight(None))
     } else {
         unit_weight(s)
-            .map(Some)
+            .map(|w| AutoWeight(Some(w)))
             .map_err(|_| format!("'{s}': expected 'auto' or a number between 0 and 1"))
     }
 }

@@ -37,7 +37,7 @@ pub struct Args {
     /// 1 − W·(1 − f), f the share of the query's surface that lies on the shape once aligned
     /// by the matched parts, so a fragment's exact source ranks first.
     #[arg(long, value_name = "W|auto", default_value = "auto", value_parser = crate::output::auto_or_unit_weight)]
-    pub verify: Option<f64>,
+    pub verify: crate::output::AutoWeight,
     #[command(flatten)]
     pub detect: DetectArgs,
     /// Print JSON.
@@ -57,7 +57,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
     }
     let mut searcher = Searcher::open(&args.index, args.detect.explicit().as_ref())?;
     searcher.set_pose_weight(args.pose)?;
-    searcher.set_verify_weight(args.verify)?;
+    searcher.set_verify_weight(args.verify.0)?;
     let reader = searcher.reader();
     let (q, ranked, answer) = searcher.query_full(&args.mesh, args.k)?;
     let QueryTimings {

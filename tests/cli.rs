@@ -382,6 +382,70 @@ fn match_with_the_pose_check_tells_a_moved_copy_from_a_bent_one() {
     }
 }
 
+/// Geometric verification runs by default for a fragment (a mesh with a boundary) and not for
+/// a closed shape: a half cut from a shape lies on it once aligned, less so on a bent copy;
+/// `--verify 0` turns it off, bad weights exit with 2.
+#[test]
+fn match_verifies_a_fragment_on_its_source_by_default() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let base = synth::textured_protrusion_sphere(6);
+    let whole = dir.path().join("whole.off");
+    write_off(&base, &whole).expect("write");
+    let (half, _) = keycomp_mesh::cut::cut_by_plane(
+        &base,
+        keycomp_mesh::Point3::origin(),
+        keycomp_mesh::Vector3::new(0.3, 0.2, 1.0),
+    );
+    let half_path = dir.path().join("half.off");
+    write_off(&half, &half_path).expect("write");
+    let mut bent_mesh = base.clone();
+    for p in &mut bent_mesh.positions {
+        let t = 1.2 * p.z;
+        *p = keycomp_mesh::Point3::new(
+            p.x * t.cos() - p.y * t.sin(),
+            p.x * t.sin() + p.y * t.cos(),
+            p.z,
+        );
+    }
+    let bent = dir.path().join("bent.off");
+    write_off(&bent_mesh, &bent).expect("write");
+    let run = |a: &Path, b: &Path, extra: &[&str]| -> Value {
+        let mut args = vec![
+            "match",
+            a.to_str().expect("utf8"),
+            b.to_str().expect("utf8"),
+            "--json",
+        ];
+        args.extend(extra);
+        let o = keycomp(&args);
+        assert!(o.status.success(), "stderr: {}", stderr(&o));
+        serde_json::from_slice(&o.stdout).expect("valid JSON")
+    };
+    let on_source = run(&half_path, &whole, &[]);
+    let fit = on_source["verified"]
+        .as_f64()
+        .expect("a fragment is verified");
+    // a perfect alignment puts about 1 − exp(−π·0.03²·512) ≈ 0.77 of a unit-area sample
+    // within 0.03 of 512 other points drawn on the same surface
+    assert!(fit > 0.65, "{on_source}");
+    let on_bent = run(&half_path, &bent, &[]);
+    let bent_fit = on_bent["verified"].as_f64().expect("verified");
+    assert!(bent_fit < fit, "{on_bent}");
+    assert!(
+        on_bent["score"].as_f64().expect("score") < on_source["score"].as_f64().expect("score"),
+        "{on_source} {on_bent}"
+    );
+    assert!(run(&half_path, &whole, &["--verify", "0"])["verified"].is_null());
+    // a closed shape is not verified unless asked
+    assert!(run(&whole, &bent, &[])["verified"].is_null());
+    assert!(run(&whole, &bent, &["--verify", "1"])["verified"].is_f64());
+    for w in ["1.5", "-0.1", "x"] {
+        let o = keycomp(&["match", "nothing.off", "nothing.off", "--verify", w]);
+        assert_eq!(o.status.code(), Some(2), "--verify {w}");
+        assert!(stderr(&o).contains("--verify"), "{}", stderr(&o));
+    }
+}
+
 #[test]
 fn render_writes_png_pictures_and_rejects_bad_options() {
     let dir = tempfile::tempdir().expect("tempdir");

@@ -152,6 +152,27 @@ def test_the_pose_check_keeps_a_shape_and_itself_and_refuses_bad_weights(shape, 
         index.query(path, pose=-0.1)
 
 
+def test_a_half_is_verified_on_its_source_by_default(shape, tmp_path):
+    path, v, f = shape
+    # the faces on one side of a plane: a fragment with a boundary
+    keep = (v[f].mean(axis=1) @ np.array([0.3, 0.2, 1.0])) > 0.0
+    used, faces = np.unique(f[keep], return_inverse=True)
+    half = (v[used], faces.reshape(-1, 3))
+    m = keycomp.match(half, path)
+    # a perfect alignment puts about 1 - exp(-pi * 0.03**2 * 512) = 0.77 of a unit-area
+    # sample within 0.03 of 512 other points drawn on the same surface
+    assert m.verified is not None and m.verified > 0.65, m.verified
+    assert keycomp.match(half, path, verify=0.0).verified is None
+    assert keycomp.match(path, (v, f)).verified is None, "a closed shape is not verified"
+    index = keycomp.Index(tmp_path / "verify")
+    assert index.add([path]) == 1
+    assert index.query(half, k=1)[0].path == str(path)
+    with pytest.raises(ValueError, match="verification"):
+        keycomp.match(half, path, verify=1.5)
+    with pytest.raises(ValueError, match="verification"):
+        index.query(half, verify=-0.1)
+
+
 def test_meshes_in_memory_and_merge(shape, tmp_path):
     path, v, f = shape
     a = keycomp.Index(tmp_path / "a")
