@@ -66,6 +66,26 @@ fn library_and_command_line_agree() {
     let typed: QueryResult = serde_json::from_value(cli.clone()).expect("QueryResult");
     assert_eq!(typed.results, lib.results);
     assert_eq!(without_timings(cli), without_timings(printed(&lib)));
+    // verification forced on for a closed query: the library and the command line agree
+    let mut verified = Searcher::open(&index, None).expect("open");
+    verified.set_verify_weight(Some(0.5)).expect("a weight");
+    let lib_v = verified.query(&query, 10).expect("query");
+    assert_eq!(lib_v.results[0].path, query.display().to_string());
+    let o = keycomp(&[
+        "query",
+        s(&query),
+        "--index",
+        s(&index),
+        "--json",
+        "--verify",
+        "0.5",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let cli: Value = serde_json::from_slice(&o.stdout).expect("JSON");
+    assert_eq!(without_timings(cli), without_timings(printed(&lib_v)));
+    assert!(verified.set_verify_weight(Some(1.5)).is_err());
+    let o = keycomp(&["query", s(&query), "--index", s(&index), "--verify", "2"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
 
     let (a, b) = (shapes.join("bumps.off"), shapes.join("ring.off"));
     let (_, _, m) = match_files(&a, &b, &MatchOptions::default()).expect("match");
