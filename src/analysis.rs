@@ -124,9 +124,6 @@ pub struct Analysed {
     pub ms: f64,
     /// The length unit it was described in.
     pub units: keycomp_describe::Units,
-    /// Vertices on the mesh's boundary: 0 for a closed surface (see
-    /// `keycomp_retrieval::verify_weight_for`).
-    pub boundary_vertices: usize,
 }
 
 /// Reads, detects and describes one mesh file under `profile`.
@@ -155,9 +152,7 @@ fn analyse_in(mesh: Mesh, profile: &Profile, path: Option<&Path>) -> Result<Anal
             source,
         }
     })?;
-    let boundary_vertices = keycomp_mesh::Topology::new(&mesh).boundary_vertices().len();
     Ok(Analysed {
-        boundary_vertices,
         mesh,
         detection,
         description,
@@ -209,6 +204,12 @@ impl Analysed {
             .iter()
             .map(|c| c.position)
             .collect()
+    }
+
+    /// Vertices on the mesh's boundary: 0 for a closed surface (see
+    /// `keycomp_retrieval::verify_weight_for`).
+    pub fn boundary_vertices(&self) -> usize {
+        self.description.boundary_vertices
     }
 
     /// Its surface sample as `keycomp_retrieval::ShapeView::sample` wants it; empty when
@@ -287,7 +288,7 @@ impl Analysed {
                 .collect(),
             layout: self.description.layout.clone(),
             sample: self.description.sample.clone(),
-            boundary_vertices: u32::try_from(self.boundary_vertices).unwrap_or(u32::MAX),
+            boundary_vertices: u32::try_from(self.boundary_vertices()).unwrap_or(u32::MAX),
         }
     }
 }

@@ -171,7 +171,7 @@ impl Searcher {
         let params = query.match_params(&MatchParams {
             pose_weight: self.pose_weight,
             verify_weight: keycomp_retrieval::verify_weight_for(
-                query.boundary_vertices,
+                query.boundary_vertices(),
                 self.verify_weight,
             ),
             ..MatchParams::default()

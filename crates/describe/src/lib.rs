@@ -268,6 +268,8 @@ pub struct ShapeDescription {
     /// query onto a shape and measuring how much of it lies on the shape); empty for a mesh
     /// without area.
     pub sample: Vec<[f32; 3]>,
+    /// Vertices on the mesh's boundary: 0 for a closed surface, more for a fragment or a scan.
+    pub boundary_vertices: usize,
 }
 
 impl ShapeDescription {
@@ -683,6 +685,7 @@ pub fn describe_with(
         components,
         layout,
         sample,
+        boundary_vertices: boundary.iter().filter(|&&b| b).count(),
     })
 }
 

@@ -146,7 +146,7 @@ impl<const D: usize> From<ShapeRecordV3<D>> for ShapeRecord<D> {
 
 impl<const D: usize> From<ShapeRecordV2<D>> for ShapeRecord<D> {
     fn from(r: ShapeRecordV2<D>) -> Self {
-        ShapeRecord {
+        ShapeRecordV3 {
             path: r.path,
             canonical_path: r.canonical_path,
             content_hash: r.content_hash,
@@ -165,9 +165,8 @@ impl<const D: usize> From<ShapeRecordV2<D>> for ShapeRecord<D> {
                 })
                 .collect(),
             layout: r.layout,
-            sample: Vec::new(),
-            boundary_vertices: 0,
         }
+        .into()
     }
 }
 

@@ -232,8 +232,8 @@ pub struct ShapeMatch {
     /// or fewer than three matches).
     pub pose: Option<f64>,
     /// Geometric verification's fitness (see [`verify`]): the share of the query's surface
-    /// sample on the target's surface once aligned; `None` when it did not run (off, no
-    /// sample or centres, fewer than three matches).
+    /// sample on the target's surface once aligned, 0 when no alignment was found; `None`
+    /// when it did not run (off, or a shape without sample or centres).
     #[serde(default)]
     pub verified: Option<f64>,
 }
@@ -271,6 +271,15 @@ pub fn match_weighted(
 ) -> ShapeMatch {
     let d = distances(query.descriptors, target.descriptors);
     match_distances(query, target, &d, params, weights)
+}
+
+/// A weight clamped to [0, 1]; 0 when it is not a number.
+fn unit_weight(w: f64) -> f64 {
+    if w.is_finite() {
+        w.clamp(0.0, 1.0)
+    } else {
+        0.0
+    }
 }
 
 /// The weight of query part `i`: `weights[i]` when it is a finite number ≥ 0, else 1.
@@ -479,29 +488,19 @@ pub(crate) fn match_distances(
     }
     // geometric verification: the query aligned onto the target by its parts' centres and
     // refined on their surfaces; assigned pairs that land together under that alignment are
-    // kept too, whatever the layout check said
-    let gamma = if params.verify_weight.is_finite() {
-        params.verify_weight.clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    let verified = if gamma > 0.0 {
-        // tentative pairs: each query part with its nearest target parts in descriptor space
-        let mut tentative: Vec<(usize, usize, f32)> = Vec::new();
-        let mut row: Vec<(f32, usize)> = Vec::with_capacity(mt);
-        for i in 0..mq {
-            row.clear();
-            row.extend((0..mt).map(|a| (d[i * mt + a], a)).filter(|x| x.0 < max_d));
-            let k = row.len().min(verify::PAIRS_PER_PART);
-            if k > 0 {
-                row.select_nth_unstable_by(k - 1, |x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
-                tentative.extend(row[..k].iter().map(|&(dd, a)| (i, a, dd)));
-            }
-        }
+    // kept too, whatever the layout check said. It runs only when both shapes have centres
+    // and a sample (shapes of older indexes have neither and keep their score).
+    let gamma = unit_weight(params.verify_weight);
+    let can_verify = gamma > 0.0
+        && !query.sample.is_empty()
+        && !target.sample.is_empty()
+        && !query.centres.is_empty()
+        && !target.centres.is_empty();
+    let verified = if can_verify {
         verify::fitness(
             query,
             target,
-            &tentative,
+            &verify::tentative_pairs(d, mq, mt, max_d),
             params.file_units.then_some(1.0),
             params.verify_tolerance,
         )
@@ -509,11 +508,14 @@ pub(crate) fn match_distances(
         None
     };
     if let Some(v) = &verified {
+        let mut kept = vec![false; k0];
+        for &a in &alive {
+            kept[a] = true;
+        }
         for (a, m) in matches.iter().enumerate() {
-            if alive.contains(&a) {
-                continue;
-            }
-            if let (Some(q), Some(t)) = (query.centres.get(m.query), target.centres.get(m.target))
+            if !kept[a]
+                && let (Some(q), Some(t)) =
+                    (query.centres.get(m.query), target.centres.get(m.target))
                 && v.agrees(q, t)
             {
                 alive.push(a);
@@ -528,11 +530,7 @@ pub(crate) fn match_distances(
     }
     // the pose check: the fraction of a kept match's partners whose straight-line distance
     // agrees with the scaled query one
-    let beta = if params.pose_weight.is_finite() {
-        params.pose_weight.clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
+    let beta = unit_weight(params.pose_weight);
     // each kept match's pose factor; empty (every factor 1) when the check does not run
     let mut pose: Vec<f64> = Vec::new();
     let mut agreement = None;
@@ -606,12 +604,9 @@ pub(crate) fn match_distances(
     } else {
         0.0
     };
-    let fitness = verified.map(|v| v.fitness);
-    let score = if gamma > 0.0 {
-        score * (1.0 - gamma * (1.0 - fitness.unwrap_or(0.0)))
-    } else {
-        score
-    };
+    // a verification that found no alignment counts as fitness 0
+    let fitness = can_verify.then(|| verified.map_or(0.0, |v| v.fitness));
+    let score = score * (1.0 - gamma * (1.0 - fitness.unwrap_or(1.0)));
     ShapeMatch {
         verified: fitness,
         pose: agreement,

@@ -136,6 +136,29 @@ fn point(p: &[f32; 3]) -> Vector3<f64> {
     Vector3::new(p[0] as f64, p[1] as f64, p[2] as f64)
 }
 
+/// Tentative pairs of parts for [`fitness`]: each query part with its [`PAIRS_PER_PART`]
+/// nearest target parts closer than `max_d`, as `(query part, target part, distance)`, from
+/// the `mq × mt` row-major descriptor distances `d`.
+pub(crate) fn tentative_pairs(
+    d: &[f32],
+    mq: usize,
+    mt: usize,
+    max_d: f32,
+) -> Vec<(usize, usize, f32)> {
+    let mut tentative = Vec::new();
+    let mut row: Vec<(f32, usize)> = Vec::with_capacity(mt);
+    for i in 0..mq {
+        row.clear();
+        row.extend((0..mt).map(|a| (d[i * mt + a], a)).filter(|x| x.0 < max_d));
+        let k = row.len().min(PAIRS_PER_PART);
+        if k > 0 {
+            row.select_nth_unstable_by(k - 1, |x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+            tentative.extend(row[..k].iter().map(|&(dd, a)| (i, a, dd)));
+        }
+    }
+    tentative
+}
+
 /// The fitness of `query` on `target` (see the module documentation) given tentative pairs of
 /// parts `(query part, target part, descriptor distance)`, in [0, 1]; `fixed_scale` is 1 in
 /// file units, `None` when the scale is unknown; `tolerance` in the target's length unit.
@@ -166,14 +189,12 @@ pub(crate) fn fitness(
     }
     let tol = tolerance.max(f64::MIN_POSITIVE);
     let centre_tol2 = (CENTRE_TOLERANCE * tol).powi(2);
-    let inliers_of = |t: &Similarity| -> Vec<usize> {
-        (0..n)
-            .filter(|&i| (t.apply(&src[i]) - dst[i]).norm_squared() <= centre_tol2)
-            .collect()
-    };
+    let is_inlier =
+        |t: &Similarity, i: usize| (t.apply(&src[i]) - dst[i]).norm_squared() <= centre_tol2;
+    let scale_ok = |s: f64| fixed_scale.is_some() || (SCALE_RANGE.0..=SCALE_RANGE.1).contains(&s);
     // 1. hypotheses: triples of the best pairs whose straight-line distances agree
     let m = n.min(SEED_PAIRS);
-    let ratio = |a: usize, b: usize| -> Option<f64> {
+    let ratio_of = |a: usize, b: usize| -> Option<f64> {
         let (x, y) = (pairs[a], pairs[b]);
         if x.0 == y.0 || x.1 == y.1 {
             return None;
@@ -189,6 +210,9 @@ pub(crate) fn fitness(
         };
         ok.then_some(r)
     };
+    // every seed pair's ratio with every other, computed once
+    let ratios: Vec<Option<f64>> = (0..m * m).map(|k| ratio_of(k / m, k % m)).collect();
+    let ratio = |a: usize, b: usize| ratios[a * m + b];
     let agree = |r: f64, q: f64| r <= q * RATIO_TOLERANCE && q <= r * RATIO_TOLERANCE;
     let mut triples: Vec<[usize; 3]> = Vec::new();
     'seeds: for a in 0..m {
@@ -216,21 +240,21 @@ pub(crate) fn fitness(
         ) else {
             continue;
         };
-        if fixed_scale.is_none() && !(SCALE_RANGE.0..=SCALE_RANGE.1).contains(&t.s) {
+        if !scale_ok(t.s) {
             continue;
         }
-        let count = inliers_of(&t).len();
+        let count = (0..n).filter(|&i| is_inlier(&t, i)).count();
         if best.as_ref().is_none_or(|(k, _)| count > *k) {
             best = Some((count, t));
         }
     }
     let (_, mut t) = best?;
-    let inliers = inliers_of(&t);
+    let inliers: Vec<usize> = (0..n).filter(|&i| is_inlier(&t, i)).collect();
     if inliers.len() >= 3 {
         let s: Vec<_> = inliers.iter().map(|&i| src[i]).collect();
         let d: Vec<_> = inliers.iter().map(|&i| dst[i]).collect();
         if let Some(refit) = umeyama(&s, &d, fixed_scale)
-            && (fixed_scale.is_some() || (SCALE_RANGE.0..=SCALE_RANGE.1).contains(&refit.s))
+            && scale_ok(refit.s)
         {
             t = refit;
         }
@@ -250,8 +274,10 @@ pub(crate) fn fitness(
     };
     let base_scale = t.s;
     let keep2 = (3.0 * tol).powi(2);
+    let (mut s, mut d) = (Vec::with_capacity(q.len()), Vec::with_capacity(q.len()));
     for _ in 0..ICP_ITERATIONS {
-        let (mut s, mut d) = (Vec::new(), Vec::new());
+        s.clear();
+        d.clear();
         for p in &q {
             let (d2, j) = nearest(&t, p);
             if d2 <= keep2 {
