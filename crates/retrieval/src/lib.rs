@@ -41,7 +41,7 @@
 //!    boundary, [`verify_weight_for`]; when both shapes give their parts' positions and a
 //!    surface sample, [`ShapeView::sample`]): the query is aligned onto the target from
 //!    tentative pairs of parts (each query part with its [`verify::PAIRS_PER_PART`] nearest
-//!    target parts by descriptor) and refined on the surface samples ([`verify`]). Assigned
+//!    target parts by descriptor, up to [`verify::PAIR_REACH`] times the largest distance) and refined on the surface samples ([`verify`]). Assigned
 //!    pairs (step 2) whose centres land together under that alignment are kept even when the
 //!    layout or size check dropped them (a scan's holes and separate pieces lengthen its
 //!    geodesics, so its layout disagrees with its own source's), and the score is multiplied
@@ -500,7 +500,7 @@ pub(crate) fn match_distances(
         verify::fitness(
             query,
             target,
-            &verify::tentative_pairs(d, mq, mt, max_d),
+            &verify::tentative_pairs(d, mq, mt, max_d * verify::PAIR_REACH),
             params.file_units.then_some(1.0),
             params.verify_tolerance,
         )

@@ -3,7 +3,9 @@
 //! large indexes: `keycomp_index::SearchMode`), each voted for by the query parts it has near
 //! neighbours for; then [`crate::match_weighted`] (the part-to-part assignment and the layout
 //! check) for the [`MATCHED_CANDIDATES`] best-voted, pruned by a bound on their score when
-//! only the top `k` are asked for.
+//! only the top `k` are asked for; with verification on ([`MatchParams::verify_weight`]), the
+//! [`VERIFIED_CANDIDATES`] best of those are matched again with it ([`crate::verify`]) and
+//! the ranking redone.
 //!
 //! Cost: m searches in parallel (m query parts, [`CANDIDATES_PER_COMPONENT`] neighbours each),
 //! the votes in O(m · [`CANDIDATES_PER_COMPONENT`]), the bounds in O(m²) per candidate, then
@@ -25,6 +27,14 @@ pub const CANDIDATES_PER_COMPONENT: usize = 64;
 
 /// Candidates matched part to part, the best by vote (see [`rank`]).
 pub const MATCHED_CANDIDATES: usize = 100;
+
+/// Candidates verified geometrically when verification is on
+/// ([`MatchParams::verify_weight`] above 0): the best by score without it. Verification costs
+/// a few milliseconds per shape ([`crate::verify`]); it re-ranks the shortlist, as spatial
+/// verification re-ranks the best candidates of an image search (J. Philbin, O. Chum,
+/// M. Isard, J. Sivic, A. Zisserman, "Object retrieval with large vocabularies and fast spatial
+/// matching", CVPR 2007). Shapes beyond it count as verified with fitness 0.
+pub const VERIFIED_CANDIDATES: usize = 32;
 
 /// One ranked shape.
 #[derive(Debug, Clone)]
@@ -156,48 +166,88 @@ fn match_candidates(
         })
         .collect();
     candidates.sort_by(|a, b| b.bound.total_cmp(&a.bound).then(a.id.cmp(&b.id)));
+    let run = |c: &Candidate, params: &MatchParams| -> ShapeMatch {
+        crate::match_distances(
+            query,
+            ShapeView {
+                descriptors: &c.descriptors,
+                layout: &c.rec.layout,
+                areas: &c.areas,
+                centres: &c.centres,
+                sample: record_sample(c.rec, params),
+            },
+            &c.d,
+            params,
+            weights,
+        )
+    };
+    let by_score = |ranked: &mut Vec<(usize, ShapeMatch)>| {
+        ranked.sort_by(|a, b| {
+            b.1.score
+                .total_cmp(&a.1.score)
+                .then(candidates[a.0].id.cmp(&candidates[b.0].id))
+        })
+    };
+    // verification runs on the shortlist only: the first stage ranks without it
+    let gamma = params.verify_weight.clamp(0.0, 1.0);
+    let verifying = gamma > 0.0;
+    let first = MatchParams {
+        verify_weight: 0.0,
+        ..*params
+    };
+    let k_first = if verifying {
+        k.max(VERIFIED_CANDIDATES)
+    } else {
+        k
+    };
     let batch = 2 * rayon::current_num_threads().max(1);
-    let mut ranked: Vec<Ranked> = Vec::new();
+    // (position in `candidates`, its match)
+    let mut ranked: Vec<(usize, ShapeMatch)> = Vec::new();
     let mut next = 0;
     while next < candidates.len() {
-        if ranked.len() >= k {
+        if ranked.len() >= k_first {
             // the k-th best score so far; a bound below it (by more than rounding) cannot enter
-            let kth = ranked[k - 1].result.score;
+            let kth = ranked[k_first - 1].1.score;
             if candidates[next].bound + 1e-9 < kth {
                 break;
             }
         }
         let end = (next + batch).min(candidates.len());
-        let done: Vec<Ranked> = candidates[next..end]
-            .par_iter()
-            .map(|c| Ranked {
-                id: c.id,
-                path: c.rec.path.clone(),
-                result: crate::match_distances(
-                    query,
-                    ShapeView {
-                        descriptors: &c.descriptors,
-                        layout: &c.rec.layout,
-                        areas: &c.areas,
-                        centres: &c.centres,
-                        sample: record_sample(c.rec, params),
-                    },
-                    &c.d,
-                    params,
-                    weights,
-                ),
-            })
+        let done: Vec<(usize, ShapeMatch)> = (next..end)
+            .into_par_iter()
+            .map(|i| (i, run(&candidates[i], &first)))
             .collect();
         ranked.extend(done);
-        ranked.sort_by(|a, b| {
-            b.result
-                .score
-                .total_cmp(&a.result.score)
-                .then(a.id.cmp(&b.id))
-        });
+        by_score(&mut ranked);
         next = end;
     }
+    if verifying {
+        // the shortlist matched again with verification; beyond it, a shape that could have
+        // been verified counts as verified with fitness 0
+        let shortlist = ranked.len().min(VERIFIED_CANDIDATES);
+        let verified: Vec<ShapeMatch> = ranked[..shortlist]
+            .par_iter()
+            .map(|&(i, _)| run(&candidates[i], params))
+            .collect();
+        for (slot, m) in ranked.iter_mut().zip(verified) {
+            slot.1 = m;
+        }
+        for (i, m) in &mut ranked[shortlist..] {
+            let c = &candidates[*i];
+            if !c.centres.is_empty() && !c.rec.sample.is_empty() {
+                m.score *= 1.0 - gamma;
+            }
+        }
+        by_score(&mut ranked);
+    }
     ranked
+        .into_iter()
+        .map(|(i, result)| Ranked {
+            id: candidates[i].id,
+            path: candidates[i].rec.path.clone(),
+            result,
+        })
+        .collect()
 }
 
 /// The part areas of an indexed shape as [`ShapeView::areas`] wants them: area fractions in

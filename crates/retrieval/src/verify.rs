@@ -1,26 +1,36 @@
 //! Geometric verification: how much of the query's surface lies on the target's once the query
 //! is moved onto it (see [`crate::MatchParams::verify_weight`]).
 //!
-//! 1. **Alignment from the matched parts.** Every kept match pairs a query part's centre with a
-//!    target part's centre. RANSAC (M. A. Fischler, R. C. Bolles, "Random sample consensus",
-//!    Communications of the ACM 24(6), 1981) over triples of matches: each triple gives the
-//!    least-squares similarity transform (rotation, translation and, unless both shapes are in
-//!    file units, a uniform scale; S. Umeyama, "Least-squares estimation of transformation
-//!    parameters between two point patterns", IEEE TPAMI 13(4), 1991); the transform that brings
-//!    most query centres within [`CENTRE_TOLERANCE`] times the tolerance of their partners wins
-//!    and is fitted again on those inliers. Every triple when there are at most
-//!    [`ALL_TRIPLES_UP_TO`] matches, else [`HYPOTHESES`] drawn by a seeded generator.
-//! 2. **Refinement on the surfaces.** ICP (P. J. Besl, N. D. McKay, "A method for registration
-//!    of 3-D shapes", IEEE TPAMI 14(2), 1992) of the query's surface sample onto the target's:
-//!    [`ICP_ITERATIONS`] rounds of nearest neighbours (a KD-tree over the target's sample),
-//!    pairs beyond three tolerances left out, and the transform fitted again; the scale stays
-//!    within [`SCALE_DRIFT`] of the alignment's.
-//! 3. **Fitness**: the fraction of the query's sample points within the tolerance of the
-//!    target's sample. The exact source of a fragment scores near 1, the same parts in another
-//!    pose less (what moved is off the surface), another shape less still.
+//! 1. **Alignment hypotheses from the parts.** Tentative pairs join each query part to its
+//!    [`PAIRS_PER_PART`] nearest target parts by descriptor (a scan's parts are cropped, so its
+//!    true partner is often not the nearest one). Triples of the [`SEED_PAIRS`] nearest pairs
+//!    whose straight-line distances agree (RANSAC: M. A. Fischler, R. C. Bolles, "Random sample
+//!    consensus", Communications of the ACM 24(6), 1981) each give the least-squares similarity
+//!    transform (rotation, translation and, unless both shapes are in file units, a uniform
+//!    scale; S. Umeyama, "Least-squares estimation of transformation parameters between two
+//!    point patterns", IEEE TPAMI 13(4), 1991), at most [`HYPOTHESES`] of them. A hypothesis
+//!    counts the pairs whose centres it brings within [`CENTRE_TOLERANCE`] tolerances; the
+//!    [`CANDIDATES`] with most (and different inliers) are fitted again on their inliers.
+//! 2. **Decided on the surfaces, not on the centres.** The count of agreeing centres does not
+//!    pick the right alignment: a left–right flip of a symmetric animal often has more. Each
+//!    candidate gets [`SCREEN_ROUNDS`] rounds of ICP (P. J. Besl, N. D. McKay, "A method for
+//!    registration of 3-D shapes", IEEE TPAMI 14(2), 1992) on every [`SCREEN_STEP`]-th point
+//!    of the query's surface sample, onto the target's sample (a KD-tree); the [`REFINED`] that
+//!    bring most of it near the target's surface get [`ICP_ITERATIONS`] rounds on the whole
+//!    sample, and the one that fits best wins. ICP pairs a point with its nearest neighbour
+//!    within a reach that shrinks from [`ICP_REACH`]`.0` to [`ICP_REACH`]`.1` tolerances (a
+//!    start a few degrees off still converges); the scale stays within [`SCALE_DRIFT`] of the
+//!    candidate's.
+//! 3. **Fitness**: the fraction of the query's sample within the tolerance of the target's
+//!    sample. Without a known scale the tolerance follows the query's size
+//!    ([`SCALE_REFERENCE`]), so that shrinking a query until it fits anywhere does not pay.
+//!    The exact source of a fragment scores highest, the same parts in another pose less (what
+//!    moved is off the surface), another shape less still.
 //!
-//! Cost: at most [`HYPOTHESES`] transforms checked against the matches, then
-//! [`ICP_ITERATIONS`] × (sample size) KD-tree look-ups: well under a millisecond per pair.
+//! Cost: at most [`HYPOTHESES`] transforms checked against the pairs, [`CANDIDATES`] ×
+//! [`SCREEN_ROUNDS`] rounds on a thinned sample and [`REFINED`] × [`ICP_ITERATIONS`] rounds of
+//! KD-tree look-ups on the whole one: a few milliseconds per target, which is why a query
+//! verifies only its best candidates (`query::VERIFIED_CANDIDATES`).
 
 use kiddo::SquaredEuclidean;
 use kiddo::immutable::float::kdtree::ImmutableKdTree;
@@ -29,7 +39,11 @@ use nalgebra::{Matrix3, Vector3};
 use crate::ShapeView;
 
 /// Tentative pairs per query part: its nearest target parts in descriptor space.
-pub const PAIRS_PER_PART: usize = 3;
+pub const PAIRS_PER_PART: usize = 6;
+/// Tentative pairs reach this many times the matching's largest descriptor distance
+/// ([`crate::MatchParams::max_distance`]): cropping moves a scan's descriptors further from
+/// their partners' than the assignment accepts.
+pub const PAIR_REACH: f32 = 1.5;
 /// Most tentative pairs, the nearest in descriptor space first, checked against a transform.
 pub const MAX_PAIRS: usize = 300;
 /// The nearest pairs whose triples give the transforms tried.
@@ -41,6 +55,20 @@ pub const HYPOTHESES: usize = 3000;
 pub const RATIO_TOLERANCE: f64 = 1.2;
 /// ICP rounds.
 pub const ICP_ITERATIONS: usize = 12;
+/// Alignments refined by ICP: the hypotheses with most agreeing centres (with different
+/// inliers); the one that fits best on the surface wins.
+pub const CANDIDATES: usize = 32;
+/// Candidates refined by ICP: those with most of a thinned sample near the target's surface.
+pub const REFINED: usize = 3;
+/// Every this-many-th sample point is used to screen the candidates.
+pub const SCREEN_STEP: usize = 4;
+/// ICP rounds on the thinned sample when screening.
+pub const SCREEN_ROUNDS: usize = 3;
+/// ICP pairs a point with its nearest neighbour when it lies within this many tolerances:
+/// from the first (a start a few degrees off still converges) down to the second.
+pub const ICP_REACH: (f64, f64) = (10.0, 3.0);
+/// Factor by which the ICP reach shrinks per round.
+pub const ICP_REACH_DECAY: f64 = 0.75;
 /// Matched centres agree with a transform within this many tolerances (centres found again on
 /// a fragment may sit a few vertices away, and matched parts of neighbouring levels share a
 /// keypoint but not always the same one).
@@ -52,6 +80,9 @@ pub const SCALE_DRIFT: f64 = 1.25;
 /// tessellation and smoothing), at least a fragment of 9 % of its area. Shrinking the query
 /// further would fit it anywhere.
 pub const SCALE_RANGE: (f64, f64) = (0.3, 1.1);
+/// Without a known scale, the fitness tolerance is the given one at this target/query length
+/// ratio (a fragment of about a third of its shape's area) and proportional to the ratio.
+pub const SCALE_REFERENCE: f64 = 0.6;
 
 /// A similarity transform `x ↦ s·R·x + t`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -194,18 +225,22 @@ pub(crate) fn fitness(
     let scale_ok = |s: f64| fixed_scale.is_some() || (SCALE_RANGE.0..=SCALE_RANGE.1).contains(&s);
     // 1. hypotheses: triples of the best pairs whose straight-line distances agree
     let m = n.min(SEED_PAIRS);
+    // two matched centres may each be off by the inlier tolerance; closer than one such
+    // tolerance, two centres give no direction to align by
+    let slack = 2.0 * CENTRE_TOLERANCE * tol;
+    let apart = CENTRE_TOLERANCE * tol;
     let ratio_of = |a: usize, b: usize| -> Option<f64> {
         let (x, y) = (pairs[a], pairs[b]);
         if x.0 == y.0 || x.1 == y.1 {
             return None;
         }
         let (eq, et) = ((src[a] - src[b]).norm(), (dst[a] - dst[b]).norm());
-        if !(eq > 0.0 && et > 0.0) {
+        if !(et > apart && eq > 0.0) {
             return None;
         }
         let r = et / eq;
         let ok = match fixed_scale {
-            Some(s) => (et - s * eq).abs() <= (RATIO_TOLERANCE - 1.0) * et.max(s * eq) + tol,
+            Some(s) => (et - s * eq).abs() <= (RATIO_TOLERANCE - 1.0) * et.max(s * eq) + slack,
             None => (SCALE_RANGE.0..=SCALE_RANGE.1).contains(&r),
         };
         ok.then_some(r)
@@ -231,7 +266,8 @@ pub(crate) fn fitness(
             }
         }
     }
-    let mut best: Option<(usize, Similarity)> = None;
+    // every hypothesis with its count of matched centres that agree
+    let mut scored: Vec<(usize, Similarity)> = Vec::new();
     for [a, b, c] in triples {
         let Some(t) = umeyama(
             &[src[a], src[b], src[c]],
@@ -244,68 +280,123 @@ pub(crate) fn fitness(
             continue;
         }
         let count = (0..n).filter(|&i| is_inlier(&t, i)).count();
-        if best.as_ref().is_none_or(|(k, _)| count > *k) {
-            best = Some((count, t));
-        }
+        scored.push((count, t));
     }
-    let (_, mut t) = best?;
-    let inliers: Vec<usize> = (0..n).filter(|&i| is_inlier(&t, i)).collect();
-    if inliers.len() >= 3 {
-        let s: Vec<_> = inliers.iter().map(|&i| src[i]).collect();
-        let d: Vec<_> = inliers.iter().map(|&i| dst[i]).collect();
-        if let Some(refit) = umeyama(&s, &d, fixed_scale)
-            && scale_ok(refit.s)
-        {
-            t = refit;
+    // the best few, each fitted again on its inliers (transforms that keep the same inliers
+    // count once)
+    scored.sort_by_key(|x| std::cmp::Reverse(x.0));
+    let mut candidates: Vec<(Vec<usize>, Similarity)> = Vec::new();
+    for (_, t) in scored {
+        if candidates.len() >= CANDIDATES {
+            break;
         }
+        let inliers: Vec<usize> = (0..n).filter(|&i| is_inlier(&t, i)).collect();
+        if candidates.iter().any(|(k, _)| *k == inliers) {
+            continue;
+        }
+        let mut t = t;
+        if inliers.len() >= 3 {
+            let s: Vec<_> = inliers.iter().map(|&i| src[i]).collect();
+            let d: Vec<_> = inliers.iter().map(|&i| dst[i]).collect();
+            if let Some(refit) = umeyama(&s, &d, fixed_scale)
+                && scale_ok(refit.s)
+            {
+                t = refit;
+            }
+        }
+        candidates.push((inliers, t));
     }
-    // 2. ICP of the query's sample onto the target's
+    if candidates.is_empty() {
+        return None;
+    }
+    // 2. ICP of the query's sample onto the target's, from each candidate; the best fit wins
     let targets: Vec<[f64; 3]> = target
         .sample
         .iter()
         .map(|p| [p[0] as f64, p[1] as f64, p[2] as f64])
         .collect();
-    let tree: ImmutableKdTree<f64, u32, 3, 32> = ImmutableKdTree::new_from_slice(&targets);
+    let tree: ImmutableKdTree<f64, u32, 3, 8> = ImmutableKdTree::new_from_slice(&targets);
     let q: Vec<Vector3<f64>> = query.sample.iter().map(point).collect();
     let nearest = |t: &Similarity, p: &Vector3<f64>| {
         let x = t.apply(p);
         let nb = tree.nearest_one::<SquaredEuclidean>(&[x.x, x.y, x.z]);
         (nb.distance, nb.item as usize)
     };
-    let base_scale = t.s;
-    let keep2 = (3.0 * tol).powi(2);
-    let (mut s, mut d) = (Vec::with_capacity(q.len()), Vec::with_capacity(q.len()));
-    for _ in 0..ICP_ITERATIONS {
-        s.clear();
-        d.clear();
-        for p in &q {
-            let (d2, j) = nearest(&t, p);
-            if d2 <= keep2 {
-                s.push(*p);
-                d.push(Vector3::new(targets[j][0], targets[j][1], targets[j][2]));
+    let tol2 = tol * tol;
+    // squared factor on the tolerance of the fitness: 1 in file units; without a known scale
+    // the tolerance follows the query's size (a query shrunk onto the target must fit more
+    // closely, else any small piece would fit anywhere)
+    let relative = |t: &Similarity| match fixed_scale {
+        Some(_) => 1.0,
+        None => (t.s / SCALE_REFERENCE).powi(2),
+    };
+    let mut s = Vec::with_capacity(q.len());
+    let mut d = Vec::with_capacity(q.len());
+    // ICP from `start` over `points`, `rounds` rounds: the transform reached
+    let mut icp = |start: Similarity, points: &[Vector3<f64>], rounds: usize| -> Similarity {
+        let mut t = start;
+        let base_scale = t.s;
+        for round in 0..rounds {
+            // pairs kept within a reach that shrinks from ICP_REACH.0 to ICP_REACH.1 tolerances
+            let reach = (ICP_REACH.0 * ICP_REACH_DECAY.powi(round as i32)).max(ICP_REACH.1) * tol;
+            let keep2 = reach * reach;
+            s.clear();
+            d.clear();
+            for p in points {
+                let (d2, j) = nearest(&t, p);
+                if d2 <= keep2 {
+                    s.push(*p);
+                    d.push(Vector3::new(targets[j][0], targets[j][1], targets[j][2]));
+                }
+            }
+            let Some(mut next) = umeyama(&s, &d, fixed_scale) else {
+                break;
+            };
+            if fixed_scale.is_none() {
+                let clamped = next
+                    .s
+                    .clamp(base_scale / SCALE_DRIFT, base_scale * SCALE_DRIFT)
+                    .clamp(SCALE_RANGE.0, SCALE_RANGE.1);
+                if clamped != next.s {
+                    next = umeyama(&s, &d, Some(clamped)).unwrap_or(next);
+                }
+            }
+            let moved = (next.r - t.r).norm() + (next.t - t.t).norm() + (next.s - t.s).abs();
+            t = next;
+            if moved < 1e-6 && reach <= ICP_REACH.1 * tol {
+                break;
             }
         }
-        let Some(mut next) = umeyama(&s, &d, fixed_scale) else {
-            break;
-        };
-        if fixed_scale.is_none() {
-            let clamped = next
-                .s
-                .clamp(base_scale / SCALE_DRIFT, base_scale * SCALE_DRIFT)
-                .clamp(SCALE_RANGE.0, SCALE_RANGE.1);
-            if clamped != next.s {
-                next = umeyama(&s, &d, Some(clamped)).unwrap_or(next);
-            }
-        }
-        let moved = (next.r - t.r).norm() + (next.t - t.t).norm() + (next.s - t.s).abs();
-        t = next;
-        if moved < 1e-6 {
-            break;
+        t
+    };
+    // a first look at each candidate: a few ICP rounds on a thinned sample, then how much of
+    // it lands near the surface
+    let thin: Vec<Vector3<f64>> = q.iter().step_by(SCREEN_STEP).copied().collect();
+    let near2 = (ICP_REACH.1 * tol).powi(2);
+    let mut screened: Vec<(usize, Similarity)> = Vec::with_capacity(candidates.len());
+    for (_, start) in &candidates {
+        let t = icp(*start, &thin, SCREEN_ROUNDS);
+        let on = thin
+            .iter()
+            .filter(|p| nearest(&t, p).0 <= near2 * relative(&t))
+            .count();
+        screened.push((on, t));
+    }
+    screened.sort_by_key(|x| std::cmp::Reverse(x.0));
+    screened.truncate(REFINED);
+    let mut best: Option<(usize, Similarity)> = None;
+    for (_, start) in screened {
+        let t = icp(start, &q, ICP_ITERATIONS);
+        // 3. the share of the query's sample on the target's surface
+        let on = q
+            .iter()
+            .filter(|p| nearest(&t, p).0 <= tol2 * relative(&t))
+            .count();
+        if best.as_ref().is_none_or(|(k, _)| on > *k) {
+            best = Some((on, t));
         }
     }
-    // 3. the share of the query's sample on the target's surface
-    let tol2 = tol * tol;
-    let on = q.iter().filter(|p| nearest(&t, p).0 <= tol2).count();
+    let (on, t) = best?;
     Some(Verified {
         fitness: on as f64 / q.len() as f64,
         transform: t,
@@ -419,5 +510,59 @@ mod tests {
         // fewer than three matches or no sample: nothing to verify
         assert!(fitness(view(qc, part), view(tc, &[]), &matches, None, 0.02).is_none());
         assert!(fitness(view(qc, part), view(tc, part), &matches[..2], None, 0.02).is_none());
+    }
+
+    /// More matched centres agree with a wrong transform (a half-turn) than with the true one;
+    /// the surfaces decide, and the true one wins.
+    #[test]
+    fn the_surface_decides_between_alignments_not_the_count_of_centres() {
+        let whole: Vec<[f32; 3]> = cloud(800, 5)
+            .iter()
+            .map(|p| [p.x as f32, (0.5 * p.y) as f32, (0.3 * p.z) as f32])
+            .collect();
+        // the query: the points with x < 0.3, moved by a rigid transform
+        let r = Rotation3::from_euler_angles(0.2, 0.4, -0.3).into_inner();
+        let t = Vector3::new(0.5, -1.0, 2.0);
+        let kept: Vec<usize> = (0..whole.len()).filter(|&i| whole[i][0] < 0.3).collect();
+        let moved = |p: &[f32; 3]| {
+            let x = r * point(p) + t;
+            [x.x as f32, x.y as f32, x.z as f32]
+        };
+        let part: Vec<[f32; 3]> = kept.iter().map(|&i| moved(&whole[i])).collect();
+        // 4 true pairs, then 6 pairs that agree with the query turned half a turn about z
+        let half = Rotation3::from_euler_angles(0.0, 0.0, std::f64::consts::PI).into_inner();
+        let mut qc = Vec::new();
+        let mut tc = Vec::new();
+        for &i in kept.iter().step_by(40).take(4) {
+            qc.push(moved(&whole[i]));
+            tc.push(whole[i]);
+        }
+        for &i in kept.iter().skip(7).step_by(25).take(6) {
+            qc.push(moved(&whole[i]));
+            let x = half * point(&whole[i]);
+            tc.push([x.x as f32, x.y as f32, x.z as f32]);
+        }
+        let matches: Vec<(usize, usize, f32)> = (0..qc.len()).map(|i| (i, i, 0.1)).collect();
+        let view = |centres: &'static [[f32; 3]], sample: &'static [[f32; 3]]| ShapeView {
+            descriptors: &[],
+            layout: &[],
+            areas: &[],
+            centres,
+            sample,
+        };
+        let leak = |v: Vec<[f32; 3]>| -> &'static [[f32; 3]] { Vec::leak(v) };
+        let v = fitness(
+            view(leak(qc), leak(part)),
+            view(leak(tc), leak(whole)),
+            &matches,
+            Some(1.0),
+            0.02,
+        )
+        .expect("verified");
+        assert!(v.fitness > 0.99, "fitness {}", v.fitness);
+        assert!(
+            (v.transform.r - r.transpose()).norm() < 1e-3,
+            "the true rotation"
+        );
     }
 }
