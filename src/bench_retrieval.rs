@@ -175,7 +175,7 @@ pub struct Args {
     pub pose_tolerance: Option<f64>,
     /// Ablation: how much geometric verification weighs (`MatchParams::verify_weight`, in
     /// [0, 1]) for every query [default: automatic, `keycomp_retrieval::verify_weight_for`:
-    /// 0.5 for a fragment, 0 for a whole shape].
+    /// 0.5 for a fragment (1 in file units), 0 for a whole shape].
     #[arg(long, value_name = "W", value_parser = crate::output::unit_weight)]
     pub verify_weight: Option<f64>,
     /// Ablation: geometric verification's tolerance (`MatchParams::verify_tolerance`, > 0)
@@ -739,6 +739,7 @@ fn kc_ranking(
     let match_params = &MatchParams {
         verify_weight: keycomp_retrieval::verify_weight_for(
             record.boundary_vertices as usize,
+            match_params.file_units,
             verify,
         ),
         ..*match_params

@@ -411,7 +411,11 @@ fn match_meshes(
         let (a, b) = (a?, b?);
         let params = MatchParams {
             pose_weight: pose,
-            verify_weight: verify_weight_for(a.boundary_vertices(), verify),
+            verify_weight: verify_weight_for(
+                a.boundary_vertices(),
+                a.match_params(&MatchParams::default()).file_units,
+                verify,
+            ),
             ..MatchParams::default()
         };
         let m = match_analysed(&a, &b, ("a", "b"), &params);

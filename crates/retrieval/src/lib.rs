@@ -117,7 +117,8 @@ pub struct MatchParams {
     /// How much geometric verification weighs (step 6 of *Steps*, [`verify`]), in [0, 1]; 0
     /// turns it off. Each candidate's score is multiplied by `1 − γ·(1 − f)`, f the share of
     /// the query's surface sample that lies on the target's once aligned. Default 0 here;
-    /// keycomp's `query`, `match` and `bench retrieval` use [`verify_weight_for`]: 0.5 for a
+    /// keycomp's `query`, `match` and `bench retrieval` use [`verify_weight_for`]: 0.5 (1 in
+    /// file units) for a
     /// query with a boundary (a fragment, a scan), 0 for a closed shape.
     pub verify_weight: f64,
     /// Distance (in the target's length unit: unit area when scale-free) within which a
@@ -146,19 +147,25 @@ impl Default for MatchParams {
 }
 
 /// Verification's weight ([`MatchParams::verify_weight`]) for a query with a boundary (a
-/// fragment, a scan) when none is given: see [`verify_weight_for`].
+/// fragment, a scan) when none is given and the shapes are scaled to unit area each: see
+/// [`verify_weight_for`].
 pub const FRAGMENT_VERIFY_WEIGHT: f64 = 0.5;
 
+/// The same in file units ([`MatchParams::file_units`]): the alignment is rigid there, with
+/// no scale to guess, so its fitness is trusted in full.
+pub const FRAGMENT_VERIFY_WEIGHT_FILE_UNITS: f64 = 1.0;
+
 /// The verification weight for a query with `boundary_vertices` vertices on its boundary:
-/// `weight` when given, else [`FRAGMENT_VERIFY_WEIGHT`] for a query with a boundary and 0 for a
-/// closed one. A fragment or a scan is a piece of one surface in one pose, and where it lies
-/// on a shape is what identifies its source; a closed shape is sought by its kind, in any
-/// pose (on FAUST, whose classes are subjects in ten poses, verification of whole shapes
-/// lowered NN / mAP from 0.870 / 0.607 to 0.720 / 0.451: BENCHMARKS.md, *Geometric
-/// verification*).
-pub fn verify_weight_for(boundary_vertices: usize, weight: Option<f64>) -> f64 {
+/// `weight` when given, else for a query with a boundary [`FRAGMENT_VERIFY_WEIGHT`]
+/// ([`FRAGMENT_VERIFY_WEIGHT_FILE_UNITS`] when `file_units`), and 0 for a closed one. A
+/// fragment or a scan is a piece of one surface in one pose, and where it lies on a shape is
+/// what identifies its source; a closed shape is sought by its kind, in any pose (on FAUST,
+/// whose classes are subjects in ten poses, verification of whole shapes lowered NN / mAP
+/// from 0.870 / 0.607 to 0.720 / 0.451: BENCHMARKS.md, *Geometric verification*).
+pub fn verify_weight_for(boundary_vertices: usize, file_units: bool, weight: Option<f64>) -> f64 {
     match weight {
         Some(w) => w,
+        None if boundary_vertices > 0 && file_units => FRAGMENT_VERIFY_WEIGHT_FILE_UNITS,
         None if boundary_vertices > 0 => FRAGMENT_VERIFY_WEIGHT,
         None => 0.0,
     }
