@@ -436,6 +436,22 @@ fn match_verifies_a_fragment_on_its_source_by_default() {
         "{on_source} {on_bent}"
     );
     assert!(run(&half_path, &whole, &["--verify", "0"])["verified"].is_null());
+    // in file units verification weighs 1 by default (0.5 scale-free): the bent copy, whose
+    // fit is lower, loses more of its score
+    let score = |v: &Value| v["score"].as_f64().expect("score");
+    let file_auto = run(&half_path, &bent, &["--units", "file"]);
+    let file_full = run(&half_path, &bent, &["--units", "file", "--verify", "1"]);
+    let file_half = run(&half_path, &bent, &["--units", "file", "--verify", "0.5"]);
+    assert_eq!(
+        score(&file_auto),
+        score(&file_full),
+        "{file_auto} {file_full}"
+    );
+    assert!(
+        file_full["verified"].as_f64().expect("verified") < 1.0
+            && score(&file_full) < score(&file_half),
+        "{file_full} {file_half}"
+    );
     // a closed shape is not verified unless asked
     assert!(run(&whole, &bent, &[])["verified"].is_null());
     assert!(run(&whole, &bent, &["--verify", "1"])["verified"].is_f64());
