@@ -55,8 +55,8 @@ pub const HYPOTHESES: usize = 3000;
 pub const RATIO_TOLERANCE: f64 = 1.2;
 /// ICP rounds.
 pub const ICP_ITERATIONS: usize = 12;
-/// Alignments refined by ICP: the hypotheses with most agreeing centres (with different
-/// inliers); the one that fits best on the surface wins.
+/// Alignments tried on the surfaces: the hypotheses with most agreeing centres (with different
+/// inliers), each screened by a few ICP rounds on a thinned sample.
 pub const CANDIDATES: usize = 32;
 /// Candidates refined by ICP: those with most of a thinned sample near the target's surface.
 pub const REFINED: usize = 3;
