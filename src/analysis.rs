@@ -212,6 +212,17 @@ impl Analysed {
         self.description.boundary_vertices
     }
 
+    /// Whether it was described in file units (`keycomp_describe::Units::File`).
+    pub fn file_units(&self) -> bool {
+        matches!(self.units, keycomp_describe::Units::File { .. })
+    }
+
+    /// Verification's weight with this shape as the query: `weight` when given, else by its
+    /// boundary and unit mode (`keycomp_retrieval::verify_weight_for`).
+    pub fn verify_weight(&self, weight: Option<f64>) -> f64 {
+        keycomp_retrieval::verify_weight_for(self.boundary_vertices(), self.file_units(), weight)
+    }
+
     /// Its surface sample as `keycomp_retrieval::ShapeView::sample` wants it; empty when
     /// `params` has verification off.
     pub fn sample(&self, params: &keycomp_retrieval::MatchParams) -> &[[f32; 3]] {
@@ -228,7 +239,7 @@ impl Analysed {
         base: &keycomp_retrieval::MatchParams,
     ) -> keycomp_retrieval::MatchParams {
         keycomp_retrieval::MatchParams {
-            file_units: matches!(self.units, keycomp_describe::Units::File { .. }),
+            file_units: self.file_units(),
             ..*base
         }
     }

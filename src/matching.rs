@@ -171,11 +171,7 @@ pub fn match_files(
     let (x, y) = (x?, y?);
     let params = MatchParams {
         pose_weight,
-        verify_weight: keycomp_retrieval::verify_weight_for(
-            x.boundary_vertices(),
-            x.match_params(&MatchParams::default()).file_units,
-            verify_weight,
-        ),
+        verify_weight: x.verify_weight(verify_weight),
         ..MatchParams::default()
     };
     let m = match_analysed(

@@ -170,16 +170,9 @@ impl Searcher {
         let (descriptors, layout) = query.view();
         let params = query.match_params(&MatchParams {
             pose_weight: self.pose_weight,
+            verify_weight: query.verify_weight(self.verify_weight),
             ..MatchParams::default()
         });
-        let params = MatchParams {
-            verify_weight: keycomp_retrieval::verify_weight_for(
-                query.boundary_vertices(),
-                params.file_units,
-                self.verify_weight,
-            ),
-            ..params
-        };
         let areas = query.areas(&params);
         let centres = query.centres(&params);
         let view = ShapeView {

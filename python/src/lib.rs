@@ -7,9 +7,7 @@ use std::path::PathBuf;
 
 use keycomp_components::{Detection, Preset, detect as detect_components};
 use keycomp_core::collection::{self, AddOptions};
-use keycomp_core::matching::{
-    MatchParams, check_pose_weight, check_verify_weight, match_analysed, verify_weight_for,
-};
+use keycomp_core::matching::{MatchParams, check_pose_weight, check_verify_weight, match_analysed};
 use keycomp_core::options::DetectOptions;
 use keycomp_core::search::{Hit, Searcher};
 use keycomp_core::{Analysed, Profile, analyse, analyse_mesh};
@@ -411,11 +409,7 @@ fn match_meshes(
         let (a, b) = (a?, b?);
         let params = MatchParams {
             pose_weight: pose,
-            verify_weight: verify_weight_for(
-                a.boundary_vertices(),
-                a.match_params(&MatchParams::default()).file_units,
-                verify,
-            ),
+            verify_weight: a.verify_weight(verify),
             ..MatchParams::default()
         };
         let m = match_analysed(&a, &b, ("a", "b"), &params);

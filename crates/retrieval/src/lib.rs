@@ -41,8 +41,8 @@
 //!    boundary, [`verify_weight_for`]; when both shapes give their parts' positions and a
 //!    surface sample, [`ShapeView::sample`]): the query is aligned onto the target from
 //!    tentative pairs of parts (each query part with its [`verify::PAIRS_PER_PART`] nearest
-//!    target parts by descriptor, up to [`verify::PAIR_REACH`] times the largest distance) and refined on the surface samples ([`verify`]). Assigned
-//!    pairs (step 2) whose centres land together under that alignment are kept even when the
+//!    target parts by descriptor, up to [`verify::PAIR_REACH`] times the largest distance) and
+//!    refined on the surface samples ([`verify`]). Assigned pairs (step 2) whose centres land together under that alignment are kept even when the
 //!    layout or size check dropped them (a scan's holes and separate pieces lengthen its
 //!    geodesics, so its layout disagrees with its own source's), and the score is multiplied
 //!    by `1 − γ·(1 − f)`, f the share of the query's sample within
@@ -118,8 +118,7 @@ pub struct MatchParams {
     /// turns it off. Each candidate's score is multiplied by `1 − γ·(1 − f)`, f the share of
     /// the query's surface sample that lies on the target's once aligned. Default 0 here;
     /// keycomp's `query`, `match` and `bench retrieval` use [`verify_weight_for`]: 0.5 (1 in
-    /// file units) for a
-    /// query with a boundary (a fragment, a scan), 0 for a closed shape.
+    /// file units) for a query with a boundary (a fragment, a scan), 0 for a closed shape.
     pub verify_weight: f64,
     /// Distance (in the target's length unit: unit area when scale-free) within which a
     /// query sample point counts as lying on the target's surface (default 0.03, about 1.4
@@ -280,8 +279,22 @@ pub fn match_weighted(
     match_distances(query, target, &d, params, weights)
 }
 
+impl ShapeMatch {
+    /// No match: no pair, score 0 (a shape without parts, or a candidate left unmatched).
+    pub fn none() -> Self {
+        ShapeMatch {
+            matches: Vec::new(),
+            score: 0.0,
+            scale: None,
+            rejected: 0,
+            pose: None,
+            verified: None,
+        }
+    }
+}
+
 /// A weight clamped to [0, 1]; 0 when it is not a number.
-fn unit_weight(w: f64) -> f64 {
+pub(crate) fn unit_weight(w: f64) -> f64 {
     if w.is_finite() {
         w.clamp(0.0, 1.0)
     } else {
@@ -351,18 +364,39 @@ pub(crate) fn match_distances(
     params: &MatchParams,
     weights: &[f64],
 ) -> ShapeMatch {
+    match assign(query, target, d, params, weights) {
+        Some(assigned) => finish(query, target, d, params, weights, assigned),
+        None => ShapeMatch::none(),
+    }
+}
+
+/// Steps 1–4 of *Steps* (the assignment, the layout and size checks): what does not depend on
+/// verification, the pose check or the score, so that a query can verify its shortlist
+/// without assigning again ([`finish`]). `None` when either shape has no parts.
+#[derive(Debug, Clone)]
+pub(crate) struct Assigned {
+    /// Every assigned pair closer than the largest distance, by query part.
+    matches: Vec<ComponentMatch>,
+    /// Positions in `matches` of the pairs the checks kept.
+    alive: Vec<usize>,
+    /// Pairs the checks dropped.
+    rejected: usize,
+    /// The layout's scale.
+    scale: Option<f64>,
+}
+
+/// Steps 1–4 of [`match_distances`]: see [`Assigned`].
+pub(crate) fn assign(
+    query: ShapeView,
+    target: ShapeView,
+    d: &[f32],
+    params: &MatchParams,
+    weights: &[f64],
+) -> Option<Assigned> {
     let (mq, mt) = (query.descriptors.len(), target.descriptors.len());
     let weight_of = |i: usize| part_weight(weights, i);
-    let empty = ShapeMatch {
-        matches: Vec::new(),
-        score: 0.0,
-        scale: None,
-        rejected: 0,
-        pose: None,
-        verified: None,
-    };
     if mq == 0 || mt == 0 {
-        return empty;
+        return None;
     }
     let max_d = params.max_distance.max(f32::MIN_POSITIVE);
     const SCALE: f64 = 1e6;
@@ -385,7 +419,7 @@ pub(crate) fn match_distances(
         }
     }
     let Ok(matrix) = Matrix::from_vec(rows, cols, values) else {
-        return empty;
+        return None;
     };
     let (_, assignment) = kuhn_munkres(&matrix);
     let mut matches: Vec<ComponentMatch> = assignment
@@ -493,6 +527,34 @@ pub(crate) fn match_distances(
             keep
         });
     }
+    Some(Assigned {
+        matches,
+        alive,
+        rejected,
+        scale,
+    })
+}
+
+/// Steps 5–7 of [`match_distances`] (verification, the pose check, the score) after
+/// [`assign`].
+pub(crate) fn finish(
+    query: ShapeView,
+    target: ShapeView,
+    d: &[f32],
+    params: &MatchParams,
+    weights: &[f64],
+    assigned: Assigned,
+) -> ShapeMatch {
+    let Assigned {
+        mut matches,
+        mut alive,
+        mut rejected,
+        scale,
+    } = assigned;
+    let (mq, mt) = (query.descriptors.len(), target.descriptors.len());
+    let weight_of = |i: usize| part_weight(weights, i);
+    let max_d = params.max_distance.max(f32::MIN_POSITIVE);
+    let k0 = matches.len();
     // geometric verification: the query aligned onto the target by its parts' centres and
     // refined on their surfaces; assigned pairs that land together under that alignment are
     // kept too, whatever the layout check said. It runs only when both shapes have centres

@@ -102,14 +102,7 @@ pub fn rank(
                 Some(Ranked {
                     id,
                     path: reader.get(id)?.path.clone(),
-                    result: ShapeMatch {
-                        matches: Vec::new(),
-                        score: 0.0,
-                        scale: None,
-                        rejected: 0,
-                        pose: None,
-                        verified: None,
-                    },
+                    result: ShapeMatch::none(),
                 })
             }),
     );
@@ -166,34 +159,42 @@ fn match_candidates(
         })
         .collect();
     candidates.sort_by(|a, b| b.bound.total_cmp(&a.bound).then(a.id.cmp(&b.id)));
-    let run = |c: &Candidate, params: &MatchParams| -> ShapeMatch {
-        crate::match_distances(
-            query,
-            ShapeView {
-                descriptors: &c.descriptors,
-                layout: &c.rec.layout,
-                areas: &c.areas,
-                centres: &c.centres,
-                sample: record_sample(c.rec, params),
-            },
-            &c.d,
-            params,
-            weights,
-        )
-    };
-    let by_score = |ranked: &mut Vec<(usize, ShapeMatch)>| {
-        ranked.sort_by(|a, b| {
-            b.1.score
-                .total_cmp(&a.1.score)
-                .then(candidates[a.0].id.cmp(&candidates[b.0].id))
-        })
-    };
-    // verification runs on the shortlist only: the first stage ranks without it
-    let gamma = params.verify_weight.clamp(0.0, 1.0);
+    fn view<'c>(c: &'c Candidate, params: &MatchParams) -> ShapeView<'c> {
+        ShapeView {
+            descriptors: &c.descriptors,
+            layout: &c.rec.layout,
+            areas: &c.areas,
+            centres: &c.centres,
+            sample: record_sample(c.rec, params),
+        }
+    }
+    /// A candidate's match, and its assignment while the shortlist may still verify it.
+    type Scored = (ShapeMatch, Option<crate::Assigned>);
+    // verification runs on the shortlist only: the first stage ranks without it, and keeps
+    // each assignment (the costly step) for the shortlist to finish again with verification
+    let gamma = crate::unit_weight(params.verify_weight);
     let verifying = gamma > 0.0;
     let first = MatchParams {
         verify_weight: 0.0,
         ..*params
+    };
+    let first_pass = |c: &Candidate| -> Scored {
+        let v = view(c, &first);
+        match crate::assign(query, v, &c.d, &first, weights) {
+            None => (ShapeMatch::none(), None),
+            Some(a) => {
+                let kept = verifying.then(|| a.clone());
+                (crate::finish(query, v, &c.d, &first, weights, a), kept)
+            }
+        }
+    };
+    let by_score = |ranked: &mut Vec<(usize, Scored)>| {
+        ranked.sort_by(|a, b| {
+            b.1.0
+                .score
+                .total_cmp(&a.1.0.score)
+                .then(candidates[a.0].id.cmp(&candidates[b.0].id))
+        })
     };
     let k_first = if verifying {
         k.max(VERIFIED_CANDIDATES)
@@ -201,38 +202,39 @@ fn match_candidates(
         k
     };
     let batch = 2 * rayon::current_num_threads().max(1);
-    // (position in `candidates`, its match)
-    let mut ranked: Vec<(usize, ShapeMatch)> = Vec::new();
+    // (position in `candidates`, its match and assignment)
+    let mut ranked: Vec<(usize, Scored)> = Vec::new();
     let mut next = 0;
     while next < candidates.len() {
         if ranked.len() >= k_first {
             // the k-th best score so far; a bound below it (by more than rounding) cannot enter
-            let kth = ranked[k_first - 1].1.score;
+            let kth = ranked[k_first - 1].1.0.score;
             if candidates[next].bound + 1e-9 < kth {
                 break;
             }
         }
         let end = (next + batch).min(candidates.len());
-        let done: Vec<(usize, ShapeMatch)> = (next..end)
+        let done: Vec<(usize, Scored)> = (next..end)
             .into_par_iter()
-            .map(|i| (i, run(&candidates[i], &first)))
+            .map(|i| (i, first_pass(&candidates[i])))
             .collect();
         ranked.extend(done);
         by_score(&mut ranked);
         next = end;
     }
     if verifying {
-        // the shortlist matched again with verification; beyond it, a shape that could have
+        // the shortlist finished again with verification; beyond it, a shape that could have
         // been verified counts as verified with fitness 0
         let shortlist = ranked.len().min(VERIFIED_CANDIDATES);
-        let verified: Vec<ShapeMatch> = ranked[..shortlist]
-            .par_iter()
-            .map(|&(i, _)| run(&candidates[i], params))
-            .collect();
-        for (slot, m) in ranked.iter_mut().zip(verified) {
-            slot.1 = m;
-        }
-        for (i, m) in &mut ranked[shortlist..] {
+        ranked[..shortlist]
+            .par_iter_mut()
+            .for_each(|(i, (m, assigned))| {
+                if let Some(a) = assigned.take() {
+                    let c = &candidates[*i];
+                    *m = crate::finish(query, view(c, params), &c.d, params, weights, a);
+                }
+            });
+        for (i, (m, _)) in &mut ranked[shortlist..] {
             let c = &candidates[*i];
             if !c.centres.is_empty() && !c.rec.sample.is_empty() {
                 m.score *= 1.0 - gamma;
@@ -242,7 +244,7 @@ fn match_candidates(
     }
     ranked
         .into_iter()
-        .map(|(i, result)| Ranked {
+        .map(|(i, (result, _))| Ranked {
             id: candidates[i].id,
             path: candidates[i].rec.path.clone(),
             result,

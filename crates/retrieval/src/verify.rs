@@ -376,10 +376,8 @@ pub(crate) fn fitness(
     let mut screened: Vec<(usize, Similarity)> = Vec::with_capacity(candidates.len());
     for (_, start) in &candidates {
         let t = icp(*start, &thin, SCREEN_ROUNDS);
-        let on = thin
-            .iter()
-            .filter(|p| nearest(&t, p).0 <= near2 * relative(&t))
-            .count();
+        let limit = near2 * relative(&t);
+        let on = thin.iter().filter(|p| nearest(&t, p).0 <= limit).count();
         screened.push((on, t));
     }
     screened.sort_by_key(|x| std::cmp::Reverse(x.0));
@@ -388,10 +386,8 @@ pub(crate) fn fitness(
     for (_, start) in screened {
         let t = icp(start, &q, ICP_ITERATIONS);
         // 3. the share of the query's sample on the target's surface
-        let on = q
-            .iter()
-            .filter(|p| nearest(&t, p).0 <= tol2 * relative(&t))
-            .count();
+        let limit = tol2 * relative(&t);
+        let on = q.iter().filter(|p| nearest(&t, p).0 <= limit).count();
         if best.as_ref().is_none_or(|(k, _)| on > *k) {
             best = Some((on, t));
         }
@@ -422,6 +418,22 @@ mod tests {
                 )
             })
             .collect()
+    }
+
+    /// A shape with only part centres and a surface sample, what [`fitness`] reads.
+    fn view(centres: &'static [[f32; 3]], sample: &'static [[f32; 3]]) -> ShapeView<'static> {
+        ShapeView {
+            descriptors: &[],
+            layout: &[],
+            areas: &[],
+            centres,
+            sample,
+        }
+    }
+
+    /// Points kept for the test's duration (a view borrows them).
+    fn leak(v: Vec<[f32; 3]>) -> &'static [[f32; 3]] {
+        Vec::leak(v)
     }
 
     #[test]
@@ -473,14 +485,6 @@ mod tests {
             .take(10)
             .collect();
         let matches: Vec<(usize, usize, f32)> = (0..qc.len()).map(|i| (i, i, 0.0)).collect();
-        let view = |centres: &'static [[f32; 3]], sample: &'static [[f32; 3]]| ShapeView {
-            descriptors: &[],
-            layout: &[],
-            areas: &[],
-            centres,
-            sample,
-        };
-        let leak = |v: Vec<[f32; 3]>| -> &'static [[f32; 3]] { Vec::leak(v) };
         let (qc, tc, part) = (leak(qc), leak(tc), leak(part));
         let f = fitness(
             view(qc, part),
@@ -543,14 +547,6 @@ mod tests {
             tc.push([x.x as f32, x.y as f32, x.z as f32]);
         }
         let matches: Vec<(usize, usize, f32)> = (0..qc.len()).map(|i| (i, i, 0.1)).collect();
-        let view = |centres: &'static [[f32; 3]], sample: &'static [[f32; 3]]| ShapeView {
-            descriptors: &[],
-            layout: &[],
-            areas: &[],
-            centres,
-            sample,
-        };
-        let leak = |v: Vec<[f32; 3]>| -> &'static [[f32; 3]] { Vec::leak(v) };
         let v = fitness(
             view(leak(qc), leak(part)),
             view(leak(tc), leak(whole)),
