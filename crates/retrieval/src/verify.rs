@@ -9,7 +9,8 @@
 //!    transform (rotation, translation and, unless both shapes are in file units, a uniform
 //!    scale; S. Umeyama, "Least-squares estimation of transformation parameters between two
 //!    point patterns", IEEE TPAMI 13(4), 1991), at most [`HYPOTHESES`] of them. A hypothesis
-//!    counts the pairs whose centres it brings within [`CENTRE_TOLERANCE`] tolerances; the
+//!    counts the places whose centres it brings within [`CENTRE_TOLERANCE`] tolerances (parts of
+//!    several levels grown from one keypoint share a centre and count once); the
 //!    [`CANDIDATES`] with most (and different inliers) are fitted again on their inliers.
 //! 2. **Decided on the surfaces, not on the centres.** The count of agreeing centres does not
 //!    pick the right alignment: a left–right flip of a symmetric animal often has more. Each
@@ -55,8 +56,8 @@ pub const HYPOTHESES: usize = 3000;
 pub const RATIO_TOLERANCE: f64 = 1.2;
 /// ICP rounds.
 pub const ICP_ITERATIONS: usize = 12;
-/// Alignments tried on the surfaces: the hypotheses with most agreeing centres (with different
-/// inliers), each screened by a few ICP rounds on a thinned sample.
+/// Alignments tried on the surfaces: the hypotheses that bring most places together (with
+/// different inliers), each screened by a few ICP rounds on a thinned sample.
 pub const CANDIDATES: usize = 32;
 /// Candidates refined by ICP: those with most of a thinned sample near the target's surface.
 pub const REFINED: usize = 3;
@@ -83,6 +84,51 @@ pub const SCALE_RANGE: (f64, f64) = (0.3, 1.1);
 /// Without a known scale, the fitness tolerance is the given one at this target/query length
 /// ratio (a fragment of about a third of its shape's area) and proportional to the ratio.
 pub const SCALE_REFERENCE: f64 = 0.6;
+
+/// The places of a list of pairs of centres: parts of several levels grown from one keypoint
+/// share their centre, so a transform that brings one stack of parts onto another matches
+/// many pairs but one place. A hypothesis is scored by the places it brings together.
+struct Places {
+    /// Each pair's query place and target place (index of the first pair with that centre).
+    ids: Vec<(usize, usize)>,
+    /// Last count that saw each query place and each target place.
+    seen: Vec<(u32, u32)>,
+    round: u32,
+}
+
+impl Places {
+    fn new(src: &[Vector3<f64>], dst: &[Vector3<f64>]) -> Self {
+        let first = |pts: &[Vector3<f64>], i: usize| pts[..i].iter().position(|p| *p == pts[i]);
+        let ids = (0..src.len())
+            .map(|i| (first(src, i).unwrap_or(i), first(dst, i).unwrap_or(i)))
+            .collect();
+        Places {
+            ids,
+            seen: vec![(0, 0); src.len()],
+            round: 0,
+        }
+    }
+
+    /// The smaller of the numbers of distinct query places and of distinct target places
+    /// among the given pairs.
+    fn count(&mut self, pairs: impl Iterator<Item = usize>) -> usize {
+        self.round += 1;
+        let r = self.round;
+        let (mut q, mut t) = (0, 0);
+        for i in pairs {
+            let (a, b) = self.ids[i];
+            if self.seen[a].0 != r {
+                self.seen[a].0 = r;
+                q += 1;
+            }
+            if self.seen[b].1 != r {
+                self.seen[b].1 = r;
+                t += 1;
+            }
+        }
+        q.min(t)
+    }
+}
 
 /// A similarity transform `x ↦ s·R·x + t`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -266,7 +312,8 @@ pub(crate) fn fitness(
             }
         }
     }
-    // every hypothesis with its count of matched centres that agree
+    // every hypothesis with its count of places it brings together
+    let mut places = Places::new(&src, &dst);
     let mut scored: Vec<(usize, Similarity)> = Vec::new();
     for [a, b, c] in triples {
         let Some(t) = umeyama(
@@ -279,7 +326,7 @@ pub(crate) fn fitness(
         if !scale_ok(t.s) {
             continue;
         }
-        let count = (0..n).filter(|&i| is_inlier(&t, i)).count();
+        let count = places.count((0..n).filter(|&i| is_inlier(&t, i)));
         scored.push((count, t));
     }
     // the best few, each fitted again on its inliers (transforms that keep the same inliers
@@ -434,6 +481,25 @@ mod tests {
     /// Points kept for the test's duration (a view borrows them).
     fn leak(v: Vec<[f32; 3]>) -> &'static [[f32; 3]] {
         Vec::leak(v)
+    }
+
+    #[test]
+    fn a_stack_of_parts_on_one_centre_counts_as_one_place() {
+        let p = |x: f64| Vector3::new(x, 0.0, 0.0);
+        // pairs 0–2: three parts stacked on one query centre, paired with three parts stacked
+        // on one target centre; pair 3 the same query centre with another target centre;
+        // pairs 4 and 5 two other places
+        let src = [p(0.0), p(0.0), p(0.0), p(0.0), p(1.0), p(2.0)];
+        let dst = [p(5.0), p(5.0), p(5.0), p(7.0), p(6.0), p(8.0)];
+        let mut places = Places::new(&src, &dst);
+        assert_eq!(places.count(0..3), 1);
+        // one query place on two target places: still one place brought together
+        assert_eq!(places.count(0..4), 1);
+        assert_eq!(places.count([0, 4, 5].into_iter()), 3);
+        assert_eq!(places.count(0..6), 3);
+        // counts do not leak from one call into the next
+        assert_eq!(places.count(4..5), 1);
+        assert_eq!(places.count(std::iter::empty()), 0);
     }
 
     #[test]
