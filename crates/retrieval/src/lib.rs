@@ -293,6 +293,16 @@ impl ShapeMatch {
     }
 }
 
+/// Whether geometric verification runs for this pair of shapes: its weight is above 0 and
+/// both give their parts' centres and a surface sample (shapes of older indexes have neither).
+pub(crate) fn can_verify(query: &ShapeView, target: &ShapeView, params: &MatchParams) -> bool {
+    unit_weight(params.verify_weight) > 0.0
+        && !query.sample.is_empty()
+        && !target.sample.is_empty()
+        && !query.centres.is_empty()
+        && !target.centres.is_empty()
+}
+
 /// A weight clamped to [0, 1]; 0 when it is not a number.
 pub(crate) fn unit_weight(w: f64) -> f64 {
     if w.is_finite() {
@@ -560,12 +570,8 @@ pub(crate) fn finish(
     // kept too, whatever the layout check said. It runs only when both shapes have centres
     // and a sample (shapes of older indexes have neither and keep their score).
     let gamma = unit_weight(params.verify_weight);
-    let can_verify = gamma > 0.0
-        && !query.sample.is_empty()
-        && !target.sample.is_empty()
-        && !query.centres.is_empty()
-        && !target.centres.is_empty();
-    let verified = if can_verify {
+    let verifying = can_verify(&query, &target, params);
+    let verified = if verifying {
         verify::fitness(
             query,
             target,
@@ -674,7 +680,7 @@ pub(crate) fn finish(
         0.0
     };
     // a verification that found no alignment counts as fitness 0
-    let fitness = can_verify.then(|| verified.map_or(0.0, |v| v.fitness));
+    let fitness = verifying.then(|| verified.map_or(0.0, |v| v.fitness));
     let score = score * (1.0 - gamma * (1.0 - fitness.unwrap_or(1.0)));
     ShapeMatch {
         verified: fitness,

@@ -236,7 +236,7 @@ fn match_candidates(
             });
         for (i, (m, _)) in &mut ranked[shortlist..] {
             let c = &candidates[*i];
-            if !c.centres.is_empty() && !c.rec.sample.is_empty() {
+            if crate::can_verify(&query, &view(c, params), params) {
                 m.score *= 1.0 - gamma;
             }
         }

@@ -12,7 +12,7 @@
 //!    counts the places whose centres it brings within [`CENTRE_TOLERANCE`] tolerances (parts of
 //!    several levels grown from one keypoint share a centre and count once); the
 //!    [`CANDIDATES`] with most (and different inliers) are fitted again on their inliers.
-//! 2. **Decided on the surfaces, not on the centres.** The count of agreeing centres does not
+//! 2. **Decided on the surfaces, not on the centres.** The count of agreeing places does not
 //!    pick the right alignment: a left–right flip of a symmetric animal often has more. Each
 //!    candidate gets [`SCREEN_ROUNDS`] rounds of ICP (P. J. Besl, N. D. McKay, "A method for
 //!    registration of 3-D shapes", IEEE TPAMI 14(2), 1992) on every [`SCREEN_STEP`]-th point
@@ -312,9 +312,10 @@ pub(crate) fn fitness(
             }
         }
     }
-    // every hypothesis with its count of places it brings together
+    // every hypothesis with its count of places it brings together and a signature of its
+    // inliers (FNV-1a over their positions), so that the choice below need not find them again
     let mut places = Places::new(&src, &dst);
-    let mut scored: Vec<(usize, Similarity)> = Vec::new();
+    let mut scored: Vec<(usize, u64, Similarity)> = Vec::new();
     for [a, b, c] in triples {
         let Some(t) = umeyama(
             &[src[a], src[b], src[c]],
@@ -326,21 +327,26 @@ pub(crate) fn fitness(
         if !scale_ok(t.s) {
             continue;
         }
-        let count = places.count((0..n).filter(|&i| is_inlier(&t, i)));
-        scored.push((count, t));
+        let mut signature: u64 = 0xcbf2_9ce4_8422_2325;
+        let count = places.count((0..n).filter(|&i| is_inlier(&t, i)).inspect(|&i| {
+            signature = (signature ^ i as u64).wrapping_mul(0x0100_0000_01b3);
+        }));
+        scored.push((count, signature, t));
     }
     // the best few, each fitted again on its inliers (transforms that keep the same inliers
     // count once)
     scored.sort_by_key(|x| std::cmp::Reverse(x.0));
-    let mut candidates: Vec<(Vec<usize>, Similarity)> = Vec::new();
-    for (_, t) in scored {
+    let mut signatures: Vec<u64> = Vec::with_capacity(CANDIDATES);
+    let mut candidates: Vec<Similarity> = Vec::with_capacity(CANDIDATES);
+    for (_, signature, t) in scored {
         if candidates.len() >= CANDIDATES {
             break;
         }
-        let inliers: Vec<usize> = (0..n).filter(|&i| is_inlier(&t, i)).collect();
-        if candidates.iter().any(|(k, _)| *k == inliers) {
+        if signatures.contains(&signature) {
             continue;
         }
+        signatures.push(signature);
+        let inliers: Vec<usize> = (0..n).filter(|&i| is_inlier(&t, i)).collect();
         let mut t = t;
         if inliers.len() >= 3 {
             let s: Vec<_> = inliers.iter().map(|&i| src[i]).collect();
@@ -351,7 +357,7 @@ pub(crate) fn fitness(
                 t = refit;
             }
         }
-        candidates.push((inliers, t));
+        candidates.push(t);
     }
     if candidates.is_empty() {
         return None;
@@ -421,7 +427,7 @@ pub(crate) fn fitness(
     let thin: Vec<Vector3<f64>> = q.iter().step_by(SCREEN_STEP).copied().collect();
     let near2 = (ICP_REACH.1 * tol).powi(2);
     let mut screened: Vec<(usize, Similarity)> = Vec::with_capacity(candidates.len());
-    for (_, start) in &candidates {
+    for start in &candidates {
         let t = icp(*start, &thin, SCREEN_ROUNDS);
         let limit = near2 * relative(&t);
         let on = thin.iter().filter(|p| nearest(&t, p).0 <= limit).count();
