@@ -126,32 +126,61 @@ pub struct Analysed {
     pub units: keycomp_describe::Units,
 }
 
-/// Reads, detects and describes one mesh file under `profile`.
+/// What a mesh is analysed as.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Role {
+    /// A shape of the collection, described under the profile as it is.
+    Indexed,
+    /// A query against the collection: a fragment is described with its patch radii adapted
+    /// to its size when the scale is free ([`DescribeParams::for_query`]).
+    Query,
+}
+
+/// Reads, detects and describes one mesh file under `profile`, as a shape of the collection.
 pub fn analyse(path: &Path, profile: &Profile) -> Result<Analysed, Error> {
+    analyse_as(path, profile, Role::Indexed)
+}
+
+/// Reads, detects and describes one mesh file under `profile`, as `role`.
+pub fn analyse_as(path: &Path, profile: &Profile, role: Role) -> Result<Analysed, Error> {
     let t = Instant::now();
     let mesh = read_mesh(path)?.mesh;
-    let mut a = analyse_in(mesh, profile, Some(path))?;
+    let mut a = analyse_in(mesh, profile, Some(path), role)?;
     a.ms = t.elapsed().as_secs_f64() * 1e3;
     Ok(a)
 }
 
-/// Detects and describes a mesh already in memory under `profile`.
+/// Detects and describes a mesh already in memory under `profile`, as a shape of the
+/// collection.
 pub fn analyse_mesh(mesh: Mesh, profile: &Profile) -> Result<Analysed, Error> {
-    analyse_in(mesh, profile, None)
+    analyse_in(mesh, profile, None, Role::Indexed)
 }
 
-fn analyse_in(mesh: Mesh, profile: &Profile, path: Option<&Path>) -> Result<Analysed, Error> {
+/// Detects and describes a mesh already in memory under `profile`, as `role`.
+pub fn analyse_mesh_as(mesh: Mesh, profile: &Profile, role: Role) -> Result<Analysed, Error> {
+    analyse_in(mesh, profile, None, role)
+}
+
+fn analyse_in(
+    mesh: Mesh,
+    profile: &Profile,
+    path: Option<&Path>,
+    role: Role,
+) -> Result<Analysed, Error> {
     let t = Instant::now();
     let detection = detect(&mesh, &profile.detect).map_err(|source| Error::Detection {
         path: path.map(Path::to_path_buf),
         source,
     })?;
-    let description = describe_with(&mesh, &detection, &profile.describe).map_err(|source| {
-        Error::Description {
+    let params = match role {
+        Role::Indexed => std::borrow::Cow::Borrowed(&profile.describe),
+        Role::Query => std::borrow::Cow::Owned(profile.describe.for_query(&mesh)),
+    };
+    let description =
+        describe_with(&mesh, &detection, &params).map_err(|source| Error::Description {
             path: path.map(Path::to_path_buf),
             source,
-        }
-    })?;
+        })?;
     Ok(Analysed {
         mesh,
         detection,
@@ -426,7 +455,18 @@ pub fn record_of(
     hash: ContentHash,
     profile: &Profile,
 ) -> Result<ShapeRecord<DIM>, Error> {
-    Ok(analyse(path, profile)?.record(path, hash))
+    record_as(path, hash, profile, Role::Indexed)
+}
+
+/// [`record_of`] for a mesh analysed as `role` (a query's record, for ranking it with
+/// `keycomp_retrieval::rank`).
+pub fn record_as(
+    path: &Path,
+    hash: ContentHash,
+    profile: &Profile,
+    role: Role,
+) -> Result<ShapeRecord<DIM>, Error> {
+    Ok(analyse_as(path, profile, role)?.record(path, hash))
 }
 
 /// Detects and describes a mesh in memory into an index record under the name `path` (which

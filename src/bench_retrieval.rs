@@ -8,8 +8,9 @@
 //! scaling of N for small meshes), the records are written to a fresh on-disk index in
 //! `OUT/index` (opened by [`crate::index_cmd::open_writer`], as `index add` does), and each query is ranked by `keycomp_retrieval::rank` over that
 //! index, as `keycomp query` does. A partial query is written to `OUT/fragments` as an OFF file
-//! and analysed by the same function, so it is detected and described exactly as a file given
-//! to `keycomp query` would be. Shapes `rank` does not return (no part among the nearest
+//! and analysed as `keycomp query` analyses a file given to it ([`keycomp::record_as`] with
+//! [`keycomp::Role::Query`]: a fragment's patch radii follow its size when the scale is free);
+//! so is a whole shape with a boundary queried whole. Shapes `rank` does not return (no part among the nearest
 //! neighbours of a query part) follow in a seeded random order ([`complete_ranking`]).
 //!
 //! **Baselines** are a descriptor per mesh and a distance between descriptors ([`Baseline`]),
@@ -28,7 +29,8 @@
 //!   has its own codebook and idf, fitted before any fragment is cut.
 //!
 //! **Cache.** Records are cached in `OUT/cache` (or `--cache`) as JSON, keyed by a hash of the
-//! file's content, the detection parameters and the running executable's bytes: a rebuilt
+//! file's content, the detection parameters, the role (shape or query) and the running
+//! executable's bytes: a rebuilt
 //! binary (whose detection may have changed) never reuses an old entry, and a re-run of the
 //! same binary skips detection. Entries are written atomically (temporary file + rename); an
 //! unreadable entry is recomputed.
@@ -69,7 +71,7 @@ use crate::index_cmd::{Profile, Reader, open_writer, progress};
 use crate::match_cmd::analyse;
 use crate::output;
 use keycomp::collection::{areas_of, unit_from_areas};
-use keycomp::record_of;
+use keycomp::{Role, record_as};
 
 pub const EXAMPLES: &str = "Examples:
   keycomp bench retrieval --collection ../shared/data/tosca
@@ -300,20 +302,22 @@ impl RecordCache {
         }
     }
 
-    fn path(&self, hash: &ContentHash) -> Option<PathBuf> {
+    fn path(&self, hash: &ContentHash, role: Role) -> Option<PathBuf> {
         let dir = self.dir.as_ref()?;
-        let key = xxhash_rust::xxh3::xxh3_128(format!("{hash}|{}", self.salt).as_bytes());
+        let key = xxhash_rust::xxh3::xxh3_128(format!("{hash}|{role:?}|{}", self.salt).as_bytes());
         Some(dir.join(format!("{key:032x}.json")))
     }
 
-    /// The record of `path` (content `hash`), from the cache or computed (and stored).
+    /// The record of `path` (content `hash`) analysed as `role`, from the cache or computed
+    /// (and stored).
     fn record(
         &self,
         path: &Path,
         hash: ContentHash,
         params: &Profile,
+        role: Role,
     ) -> Result<(ShapeRecord<DIM>, bool)> {
-        let entry = self.path(&hash);
+        let entry = self.path(&hash, role);
         let cached = entry
             .as_ref()
             .and_then(|e| fs::read(e).ok())
@@ -324,7 +328,7 @@ impl RecordCache {
             r.canonical_path = keycomp_index::canonical_path(path);
             return Ok((r, true));
         }
-        let r = record_of(path, hash, params)?;
+        let r = record_as(path, hash, params, role)?;
         if let (Some(e), Ok(bytes)) = (entry, serde_json::to_vec(&r)) {
             // a cache that cannot be written only costs time
             let _ = output::write_bytes(&e, &bytes);
@@ -664,7 +668,7 @@ fn partial_repeatability(
     profile: &Profile,
 ) -> Result<Repeatability> {
     let s = analyse(source, profile)?;
-    let f = analyse(fragment, profile)?;
+    let f = keycomp::analyse_as(fragment, profile, Role::Query)?;
     let src_areas = keycomp_mesh::geometry::vertex_areas(&s.mesh);
     let frag_areas = keycomp_mesh::geometry::vertex_areas(&f.mesh);
     let mut to_frag = vec![u32::MAX; s.mesh.num_vertices()];
@@ -915,7 +919,7 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
         .map(|p| {
             let r = (|| {
                 let hash = ContentHash::of_file(p)?;
-                let (rec, hit) = cache.record(p, hash, &params)?;
+                let (rec, hit) = cache.record(p, hash, &params, Role::Indexed)?;
                 if args.no_baselines {
                     return Ok((rec, hit, None));
                 }
@@ -1015,13 +1019,25 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
         );
     }
 
-    // 3. whole-shape queries
+    // 3. whole-shape queries, each analysed as `keycomp query` would: a shape with a boundary
+    // is described as a fragment (DescribeParams::for_query), closed ones as indexed
+    let fragment_params = params.describe.for_fragment() != params.describe;
+    let as_queries: Vec<Option<ShapeRecord<DIM>>> = (0..n)
+        .into_par_iter()
+        .map(|i| -> Result<Option<ShapeRecord<DIM>>> {
+            if !(fragment_params && records[i].boundary_vertices > 0) {
+                return Ok(None);
+            }
+            let hash = records[i].content_hash;
+            Ok(Some(cache.record(&files[i], hash, &params, Role::Query)?.0))
+        })
+        .collect::<Result<_>>()?;
     let mut sets = Vec::new();
     let whole: Vec<QueryResult> = (0..n)
         .map(|i| -> Result<QueryResult> {
             let returned = kc_ranking(
                 &reader,
-                &records[i],
+                as_queries[i].as_ref().unwrap_or(&records[i]),
                 &index_of,
                 &match_params,
                 args.verify_weight,
@@ -1125,7 +1141,11 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
                 // key-components (its ranking is random), which is reported
                 let rec = ContentHash::of_file(&path)
                     .map_err(anyhow::Error::from)
-                    .and_then(|hash| cache.record(&path, hash, &params).map(|(r, _)| r));
+                    .and_then(|hash| {
+                        cache
+                            .record(&path, hash, &params, Role::Query)
+                            .map(|(r, _)| r)
+                    });
                 let rep = if args.repeatability {
                     Some(partial_repeatability(
                         &files[src],

@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::collection::Units;
 use crate::options::DetectOptions;
-use crate::{Analysed, Error, Profile, analyse};
+use crate::{Analysed, Error, Profile, Role, analyse, analyse_as};
 
 /// A part of A paired with a part of B.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -167,7 +167,10 @@ pub fn match_files(
     let pose_weight = check_pose_weight(options.pose_weight)?;
     let verify_weight = check_verify_weight(options.verify_weight)?;
     let profile = match_profile(options, b)?;
-    let (x, y) = rayon::join(|| analyse(a, &profile), || analyse(b, &profile));
+    let (x, y) = rayon::join(
+        || analyse_as(a, &profile, Role::Query),
+        || analyse(b, &profile),
+    );
     let (x, y) = (x?, y?);
     let params = MatchParams {
         pose_weight,

@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::collection::Reader;
 use crate::options::DetectOptions;
-use crate::{Analysed, Error, Profile, analyse, analyse_mesh, query_profile};
+use crate::{Analysed, Error, Profile, Role, analyse_as, analyse_mesh_as, query_profile};
 
 /// A part of the query matched to a part of a result.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -155,12 +155,12 @@ impl Searcher {
 
     /// Reads and analyses a query file under the index's profile.
     pub fn analyse(&self, path: &Path) -> Result<Analysed, Error> {
-        analyse(path, &self.profile)
+        analyse_as(path, &self.profile, Role::Query)
     }
 
     /// Analyses a query mesh in memory under the index's profile.
     pub fn analyse_mesh(&self, mesh: Mesh) -> Result<Analysed, Error> {
-        analyse_mesh(mesh, &self.profile)
+        analyse_mesh_as(mesh, &self.profile, Role::Query)
     }
 
     /// The `k` best shapes for an analysed query, best first (fewer when fewer shapes are

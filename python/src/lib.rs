@@ -10,7 +10,7 @@ use keycomp_core::collection::{self, AddOptions};
 use keycomp_core::matching::{MatchParams, check_pose_weight, check_verify_weight, match_analysed};
 use keycomp_core::options::DetectOptions;
 use keycomp_core::search::{Hit, Searcher};
-use keycomp_core::{Analysed, Profile, analyse, analyse_mesh};
+use keycomp_core::{Analysed, Profile, Role, analyse_as, analyse_mesh_as};
 use keycomp_mesh::{Mesh, MeshError, Point3, read_mesh as read_mesh_file};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2};
 use pyo3::exceptions::{PyOSError, PyValueError};
@@ -382,10 +382,10 @@ impl MatchResult {
     }
 }
 
-fn analyse_input(input: MeshInput, profile: &Profile) -> PyResult<Analysed> {
+fn analyse_input(input: MeshInput, profile: &Profile, role: Role) -> PyResult<Analysed> {
     match input {
-        MeshInput::Path(p) => analyse(&p, profile).map_err(analysis_err),
-        MeshInput::Mesh(m) => analyse_mesh(m, profile).map_err(analysis_err),
+        MeshInput::Path(p) => analyse_as(&p, profile, role).map_err(analysis_err),
+        MeshInput::Mesh(m) => analyse_mesh_as(m, profile, role).map_err(analysis_err),
     }
 }
 
@@ -405,7 +405,10 @@ fn match_meshes(
     let (a, b) = (mesh_input(a, None)?, mesh_input(b, None)?);
     py.detach(|| {
         let profile = Profile::current(&DetectOptions::default().retrieval_params());
-        let (a, b) = rayon::join(|| analyse_input(a, &profile), || analyse_input(b, &profile));
+        let (a, b) = rayon::join(
+            || analyse_input(a, &profile, Role::Query),
+            || analyse_input(b, &profile, Role::Indexed),
+        );
         let (a, b) = (a?, b?);
         let params = MatchParams {
             pose_weight: pose,

@@ -280,3 +280,47 @@ fn out_of_range_parameters_are_refused() {
         );
     }
 }
+
+#[test]
+fn a_fragment_query_gets_patches_of_its_sources_sizes() {
+    // a cut that keeps f of the area, scaled to unit area on its own, is magnified by 1/√f:
+    // described as a query, its patch radii in the source's unit are the source's again
+    let mesh = synth::textured_protrusion_sphere(6);
+    let (part, _) =
+        keycomp_mesh::cut::cut_by_plane(&mesh, keycomp_mesh::Point3::origin(), Vector3::z());
+    let f = geometry::total_area(&part) / geometry::total_area(&mesh);
+    assert!((0.4..0.6).contains(&f), "kept {f}");
+    let defaults = DescribeParams::default();
+    // closed: described as indexed; a fragment in file units keeps its source's scale
+    assert_eq!(defaults.for_query(&mesh), defaults);
+    let file = DescribeParams {
+        units: Units::File { length: 1.0 },
+        ..DescribeParams::default()
+    };
+    assert_eq!(file.for_query(&part), file);
+    let query = defaults.for_query(&part);
+    assert_eq!(query.levels.len(), defaults.levels.len());
+    // in the source's unit, the query's radii are within the ladder's half step of the
+    // source's, the indexed description's are not
+    let in_source = |r: f64| r * f.sqrt();
+    for (q, s) in query.levels.iter().zip(&defaults.levels) {
+        let off = (in_source(*q) / s).ln().abs();
+        assert!(off < 0.5 * 1.5f64.ln(), "query {q} against {s}: {off}");
+        assert!(off < (in_source(*s) / s).ln().abs(), "{q}, {s}");
+    }
+    // and the parts' measured radii follow: the largest patch of the middle level
+    let det = detect(&part, &DetectParams::default()).expect("detect");
+    let d = describe_with(&part, &det, &query).expect("describe");
+    let level = 3u8;
+    let widest = d
+        .components
+        .iter()
+        .filter(|c| c.level == level)
+        .map(|c| c.radius)
+        .fold(0.0, f64::max);
+    let want = query.levels[usize::from(level) - 1];
+    assert!(
+        widest <= want * 1.0001 && widest > 0.8 * want,
+        "{widest} for {want}"
+    );
+}
