@@ -118,8 +118,12 @@ pub struct Analysed {
     pub mesh: Mesh,
     /// Its key-components (Sipiran & Bustos 2013).
     pub detection: Detection,
-    /// Its parts at several scales, their descriptors and layout.
+    /// Its parts at several scales, their descriptors and layout (for a query with several
+    /// scale hypotheses, those of the first: hypothesis 0).
     pub description: ShapeDescription,
+    /// A query's descriptions under its other scale hypotheses, hypothesis 1 onwards
+    /// (`keycomp_describe::DescribeParams::for_query`); empty for one description.
+    pub hypotheses: Vec<ShapeDescription>,
     /// Wall time of the analysis (reading included for a file), in milliseconds.
     pub ms: f64,
     /// The length unit it was described in.
@@ -173,33 +177,67 @@ fn analyse_in(
         source,
     })?;
     let params = match role {
-        Role::Indexed => std::borrow::Cow::Borrowed(&profile.describe),
-        Role::Query => std::borrow::Cow::Owned(profile.describe.for_query(&mesh)),
+        Role::Indexed => vec![profile.describe.clone()],
+        Role::Query => profile.describe.for_query(&mesh),
     };
-    let description =
-        describe_with(&mesh, &detection, &params).map_err(|source| Error::Description {
-            path: path.map(Path::to_path_buf),
-            source,
-        })?;
+    let mut hypotheses = params
+        .iter()
+        .map(|p| {
+            describe_with(&mesh, &detection, p).map_err(|source| Error::Description {
+                path: path.map(Path::to_path_buf),
+                source,
+            })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    if hypotheses.is_empty() {
+        return Err(Error::Invalid("no description parameters".into()));
+    }
+    let description = hypotheses.remove(0);
     Ok(Analysed {
         mesh,
         detection,
         description,
+        hypotheses,
         ms: t.elapsed().as_secs_f64() * 1e3,
         units: profile.describe.units,
     })
 }
 
 impl Analysed {
+    /// Its descriptions: one, or one per scale hypothesis of a query ([`Analysed::hypotheses`]).
+    pub fn hypothesis_count(&self) -> usize {
+        1 + self.hypotheses.len()
+    }
+
+    /// Its description under scale hypothesis `h` (0: [`Analysed::description`]; the first
+    /// when there is no such hypothesis).
+    pub fn hypothesis(&self, h: usize) -> &ShapeDescription {
+        match h {
+            0 => &self.description,
+            _ => self.hypotheses.get(h - 1).unwrap_or(&self.description),
+        }
+    }
+
+    /// Makes hypothesis `h` its [`Analysed::description`] (the one a match chose), the
+    /// others its [`Analysed::hypotheses`] in their order.
+    pub fn select(&mut self, h: usize) {
+        if (1..self.hypothesis_count()).contains(&h) {
+            std::mem::swap(&mut self.description, &mut self.hypotheses[h - 1]);
+            self.hypotheses[..h].rotate_right(1);
+        }
+    }
+
     /// The matching view of this shape: one descriptor per part, and the parts' layout.
     pub fn view(&self) -> (Vec<keycomp_describe::Descriptor>, &[f32]) {
+        self.view_of(0)
+    }
+
+    /// [`Analysed::view`] under scale hypothesis `h`.
+    pub fn view_of(&self, h: usize) -> (Vec<keycomp_describe::Descriptor>, &[f32]) {
+        let d = self.hypothesis(h);
         (
-            self.description
-                .components
-                .iter()
-                .map(|c| c.descriptor)
-                .collect(),
-            &self.description.layout,
+            d.components.iter().map(|c| c.descriptor).collect(),
+            &d.layout,
         )
     }
 
@@ -208,6 +246,11 @@ impl Analysed {
     /// when scale-free, times the surface area in file units; empty when `params` has the area
     /// check off.
     pub fn areas(&self, params: &keycomp_retrieval::MatchParams) -> Vec<f32> {
+        self.areas_of(0, params)
+    }
+
+    /// [`Analysed::areas`] under scale hypothesis `h`.
+    pub fn areas_of(&self, h: usize, params: &keycomp_retrieval::MatchParams) -> Vec<f32> {
         if params.area_tolerance <= 1.0 {
             return Vec::new();
         }
@@ -215,7 +258,7 @@ impl Analysed {
             keycomp_describe::Units::ScaleFree => 1.0,
             keycomp_describe::Units::File { .. } => self.detection.area,
         };
-        self.description
+        self.hypothesis(h)
             .components
             .iter()
             .map(|c| (c.area * unit) as f32)
@@ -225,10 +268,15 @@ impl Analysed {
     /// Its parts' centre positions as `keycomp_retrieval::ShapeView::centres` wants them;
     /// empty when `params` has the pose check and verification off.
     pub fn centres(&self, params: &keycomp_retrieval::MatchParams) -> Vec<[f32; 3]> {
+        self.centres_of(0, params)
+    }
+
+    /// [`Analysed::centres`] under scale hypothesis `h`.
+    pub fn centres_of(&self, h: usize, params: &keycomp_retrieval::MatchParams) -> Vec<[f32; 3]> {
         if params.pose_weight <= 0.0 && params.verify_weight <= 0.0 {
             return Vec::new();
         }
-        self.description
+        self.hypothesis(h)
             .components
             .iter()
             .map(|c| c.position)
@@ -255,10 +303,15 @@ impl Analysed {
     /// Its surface sample as `keycomp_retrieval::ShapeView::sample` wants it; empty when
     /// `params` has verification off.
     pub fn sample(&self, params: &keycomp_retrieval::MatchParams) -> &[[f32; 3]] {
+        self.sample_of(0, params)
+    }
+
+    /// [`Analysed::sample`] under scale hypothesis `h`.
+    pub fn sample_of(&self, h: usize, params: &keycomp_retrieval::MatchParams) -> &[[f32; 3]] {
         if params.verify_weight <= 0.0 {
             return &[];
         }
-        &self.description.sample
+        &self.hypothesis(h).sample
     }
 
     /// The matching parameters for shapes described like this one: `base` with
@@ -274,24 +327,42 @@ impl Analysed {
     }
 
     /// Part-to-part matching of this shape (as the query) against `other` (Kuhn–Munkres on
-    /// descriptor distances, then the layout and area checks; `keycomp_retrieval::match_shapes`).
+    /// descriptor distances, then the layout and area checks; `keycomp_retrieval::match_shapes`),
+    /// under each of its scale hypotheses: the best match, and the hypothesis that gave it
+    /// (the first on ties).
     pub fn match_with(
         &self,
         other: &Analysed,
         params: &keycomp_retrieval::MatchParams,
+    ) -> (keycomp_retrieval::ShapeMatch, usize) {
+        let mut best = (self.match_hypothesis(0, other, params), 0);
+        for h in 1..self.hypothesis_count() {
+            let m = self.match_hypothesis(h, other, params);
+            if m.score > best.0.score {
+                best = (m, h);
+            }
+        }
+        best
+    }
+
+    fn match_hypothesis(
+        &self,
+        h: usize,
+        other: &Analysed,
+        params: &keycomp_retrieval::MatchParams,
     ) -> keycomp_retrieval::ShapeMatch {
         let params = self.match_params(params);
-        let (da, la) = self.view();
+        let (da, la) = self.view_of(h);
         let (db, lb) = other.view();
-        let (aa, ab) = (self.areas(&params), other.areas(&params));
-        let (ca, cb) = (self.centres(&params), other.centres(&params));
+        let (aa, ab) = (self.areas_of(h, &params), other.areas(&params));
+        let (ca, cb) = (self.centres_of(h, &params), other.centres(&params));
         keycomp_retrieval::match_shapes(
             keycomp_retrieval::ShapeView {
                 descriptors: &da,
                 layout: la,
                 areas: &aa,
                 centres: &ca,
-                sample: self.sample(&params),
+                sample: self.sample_of(h, &params),
             },
             keycomp_retrieval::ShapeView {
                 descriptors: &db,
@@ -307,6 +378,18 @@ impl Analysed {
     /// The index record of this analysis, for a shape known by `path` (its identity in the
     /// index is the path's canonical form) whose file has content hash `hash`.
     pub fn record(&self, path: &Path, hash: ContentHash) -> ShapeRecord<DIM> {
+        self.record_of(0, path, hash)
+    }
+
+    /// [`Analysed::record`] of each scale hypothesis, in their order.
+    pub fn records(&self, path: &Path, hash: ContentHash) -> Vec<ShapeRecord<DIM>> {
+        (0..self.hypothesis_count())
+            .map(|h| self.record_of(h, path, hash))
+            .collect()
+    }
+
+    fn record_of(&self, h: usize, path: &Path, hash: ContentHash) -> ShapeRecord<DIM> {
+        let d = self.hypothesis(h);
         ShapeRecord {
             path: path.to_path_buf(),
             canonical_path: canonical_path(path),
@@ -314,8 +397,7 @@ impl Analysed {
             vertex_count: self.mesh.num_vertices() as u32,
             face_count: self.mesh.num_faces() as u32,
             surface_area: self.detection.area,
-            components: self
-                .description
+            components: d
                 .components
                 .iter()
                 .map(|c| ComponentRecord {
@@ -326,8 +408,8 @@ impl Analysed {
                     centre: Some(c.position),
                 })
                 .collect(),
-            layout: self.description.layout.clone(),
-            sample: self.description.sample.clone(),
+            layout: d.layout.clone(),
+            sample: d.sample.clone(),
             boundary_vertices: u32::try_from(self.boundary_vertices()).unwrap_or(u32::MAX),
         }
     }
@@ -455,18 +537,18 @@ pub fn record_of(
     hash: ContentHash,
     profile: &Profile,
 ) -> Result<ShapeRecord<DIM>, Error> {
-    record_as(path, hash, profile, Role::Indexed)
+    Ok(analyse(path, profile)?.record(path, hash))
 }
 
-/// [`record_of`] for a mesh analysed as `role` (a query's record, for ranking it with
-/// `keycomp_retrieval::rank`).
-pub fn record_as(
+/// [`record_of`] for a mesh analysed as `role`: one record per description (a query's
+/// records, one per scale hypothesis, for `keycomp_retrieval::rank_hypotheses`).
+pub fn records_as(
     path: &Path,
     hash: ContentHash,
     profile: &Profile,
     role: Role,
-) -> Result<ShapeRecord<DIM>, Error> {
-    Ok(analyse_as(path, profile, role)?.record(path, hash))
+) -> Result<Vec<ShapeRecord<DIM>>, Error> {
+    Ok(analyse_as(path, profile, role)?.records(path, hash))
 }
 
 /// Detects and describes a mesh in memory into an index record under the name `path` (which

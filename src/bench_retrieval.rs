@@ -8,9 +8,10 @@
 //! scaling of N for small meshes), the records are written to a fresh on-disk index in
 //! `OUT/index` (opened by [`crate::index_cmd::open_writer`], as `index add` does), and each query is ranked by `keycomp_retrieval::rank` over that
 //! index, as `keycomp query` does. A partial query is written to `OUT/fragments` as an OFF file
-//! and analysed as `keycomp query` analyses a file given to it ([`keycomp::record_as`] with
-//! [`keycomp::Role::Query`]: a fragment's patch radii follow its size when the scale is free);
-//! so is a whole shape with a boundary queried whole. Shapes `rank` does not return (no part among the nearest
+//! and analysed as `keycomp query` analyses a file given to it ([`keycomp::records_as`] with
+//! [`keycomp::Role::Query`]: scale-free, a fragment is described under two scale hypotheses
+//! and ranked by `keycomp_retrieval::rank_hypotheses`); so is a whole shape with a boundary
+//! queried whole. Shapes `rank` does not return (no part among the nearest
 //! neighbours of a query part) follow in a seeded random order ([`complete_ranking`]).
 //!
 //! **Baselines** are a descriptor per mesh and a distance between descriptors ([`Baseline`]),
@@ -59,7 +60,7 @@ use keycomp_describe::{DIM, DescribeParams, Units};
 use keycomp_fragment::{PartialKind, cut_fragment};
 use keycomp_index::{ContentHash, ShapeRecord};
 use keycomp_mesh::{Mesh, read_mesh};
-use keycomp_retrieval::{MatchParams, rank};
+use keycomp_retrieval::{MatchParams, rank_hypotheses};
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -71,7 +72,7 @@ use crate::index_cmd::{Profile, Reader, open_writer, progress};
 use crate::match_cmd::analyse;
 use crate::output;
 use keycomp::collection::{areas_of, unit_from_areas};
-use keycomp::{Role, record_as};
+use keycomp::{Role, records_as};
 
 pub const EXAMPLES: &str = "Examples:
   keycomp bench retrieval --collection ../shared/data/tosca
@@ -308,27 +309,29 @@ impl RecordCache {
         Some(dir.join(format!("{key:032x}.json")))
     }
 
-    /// The record of `path` (content `hash`) analysed as `role`, from the cache or computed
-    /// (and stored).
-    fn record(
+    /// The records of `path` (content `hash`) analysed as `role` (one per description), from
+    /// the cache or computed (and stored).
+    fn records(
         &self,
         path: &Path,
         hash: ContentHash,
         params: &Profile,
         role: Role,
-    ) -> Result<(ShapeRecord<DIM>, bool)> {
+    ) -> Result<(Vec<ShapeRecord<DIM>>, bool)> {
         let entry = self.path(&hash, role);
         let cached = entry
             .as_ref()
             .and_then(|e| fs::read(e).ok())
-            .and_then(|b| serde_json::from_slice::<ShapeRecord<DIM>>(&b).ok())
-            .filter(|r| r.content_hash == hash);
-        if let Some(mut r) = cached {
-            r.path = path.to_path_buf();
-            r.canonical_path = keycomp_index::canonical_path(path);
-            return Ok((r, true));
+            .and_then(|b| serde_json::from_slice::<Vec<ShapeRecord<DIM>>>(&b).ok())
+            .filter(|rs| !rs.is_empty() && rs.iter().all(|r| r.content_hash == hash));
+        if let Some(mut rs) = cached {
+            for r in &mut rs {
+                r.path = path.to_path_buf();
+                r.canonical_path = keycomp_index::canonical_path(path);
+            }
+            return Ok((rs, true));
         }
-        let r = record_as(path, hash, params, role)?;
+        let r = records_as(path, hash, params, role)?;
         if let (Some(e), Ok(bytes)) = (entry, serde_json::to_vec(&r)) {
             // a cache that cannot be written only costs time
             let _ = output::write_bytes(&e, &bytes);
@@ -732,14 +735,18 @@ fn partial_repeatability(
     })
 }
 
-/// Key-component ranking of the collection for one query (indices into the collection).
+/// Key-component ranking of the collection for one query, its records one per scale
+/// hypothesis (indices into the collection).
 fn kc_ranking(
     reader: &Reader,
-    record: &ShapeRecord<DIM>,
+    records: &[ShapeRecord<DIM>],
     index_of: &HashMap<PathBuf, usize>,
     match_params: &MatchParams,
     verify: Option<f64>,
 ) -> Result<Vec<usize>> {
+    let Some(record) = records.first() else {
+        return Ok(Vec::new());
+    };
     let match_params = &MatchParams {
         verify_weight: keycomp_retrieval::verify_weight_for(
             record.boundary_vertices as usize,
@@ -748,20 +755,36 @@ fn kc_ranking(
         ),
         ..*match_params
     };
-    let descs: Vec<[f32; DIM]> = record.components.iter().map(|c| c.descriptor).collect();
-    if descs.is_empty() {
+    if record.components.is_empty() {
         return Ok(Vec::new());
     }
-    let areas = keycomp_retrieval::record_areas(record, match_params);
-    let centres = keycomp_retrieval::record_centres(record, match_params);
-    let view = keycomp_retrieval::ShapeView {
-        descriptors: &descs,
-        layout: &record.layout,
-        areas: &areas,
-        centres: &centres,
-        sample: keycomp_retrieval::record_sample(record, match_params),
-    };
-    let ranked = rank(reader, view, index_of.len(), match_params)?;
+    let parts: Vec<_> = records
+        .iter()
+        .map(|r| {
+            (
+                r.components
+                    .iter()
+                    .map(|c| c.descriptor)
+                    .collect::<Vec<_>>(),
+                keycomp_retrieval::record_areas(r, match_params),
+                keycomp_retrieval::record_centres(r, match_params),
+            )
+        })
+        .collect();
+    let views: Vec<_> = records
+        .iter()
+        .zip(&parts)
+        .map(
+            |(r, (descs, areas, centres))| keycomp_retrieval::ShapeView {
+                descriptors: descs,
+                layout: &r.layout,
+                areas,
+                centres,
+                sample: keycomp_retrieval::record_sample(r, match_params),
+            },
+        )
+        .collect();
+    let ranked = rank_hypotheses(reader, &views, index_of.len(), match_params)?;
     Ok(ranked
         .iter()
         .filter_map(|r| index_of.get(&r.path).copied())
@@ -919,7 +942,8 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
         .map(|p| {
             let r = (|| {
                 let hash = ContentHash::of_file(p)?;
-                let (rec, hit) = cache.record(p, hash, &params, Role::Indexed)?;
+                let (recs, hit) = cache.records(p, hash, &params, Role::Indexed)?;
+                let rec = recs.into_iter().next().context("no record")?;
                 if args.no_baselines {
                     return Ok((rec, hit, None));
                 }
@@ -1021,15 +1045,17 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
 
     // 3. whole-shape queries, each analysed as `keycomp query` would: a shape with a boundary
     // is described as a fragment (DescribeParams::for_query), closed ones as indexed
-    let fragment_params = params.describe.for_fragment() != params.describe;
-    let as_queries: Vec<Option<ShapeRecord<DIM>>> = (0..n)
+    let fragment_params = params.describe.for_fragment() != [params.describe.clone()];
+    let as_queries: Vec<Option<Vec<ShapeRecord<DIM>>>> = (0..n)
         .into_par_iter()
-        .map(|i| -> Result<Option<ShapeRecord<DIM>>> {
+        .map(|i| -> Result<Option<Vec<ShapeRecord<DIM>>>> {
             if !(fragment_params && records[i].boundary_vertices > 0) {
                 return Ok(None);
             }
             let hash = records[i].content_hash;
-            Ok(Some(cache.record(&files[i], hash, &params, Role::Query)?.0))
+            Ok(Some(
+                cache.records(&files[i], hash, &params, Role::Query)?.0,
+            ))
         })
         .collect::<Result<_>>()?;
     let mut sets = Vec::new();
@@ -1037,7 +1063,9 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
         .map(|i| -> Result<QueryResult> {
             let returned = kc_ranking(
                 &reader,
-                as_queries[i].as_ref().unwrap_or(&records[i]),
+                as_queries[i]
+                    .as_deref()
+                    .unwrap_or(std::slice::from_ref(&records[i])),
                 &index_of,
                 &match_params,
                 args.verify_weight,
@@ -1109,7 +1137,7 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
         f64,
         f64,
         String,
-        Result<ShapeRecord<DIM>>,
+        Result<Vec<ShapeRecord<DIM>>>,
         Vec<Vec<f64>>,
         PathBuf,
         Option<Repeatability>,
@@ -1143,7 +1171,7 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
                     .map_err(anyhow::Error::from)
                     .and_then(|hash| {
                         cache
-                            .record(&path, hash, &params, Role::Query)
+                            .records(&path, hash, &params, Role::Query)
                             .map(|(r, _)| r)
                     });
                 let rep = if args.repeatability {
@@ -1181,7 +1209,7 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
         let (returned, components, error) = match &rec {
             Ok(r) => (
                 kc_ranking(&reader, r, &index_of, &match_params, args.verify_weight)?,
-                r.components.len(),
+                r.first().map_or(0, |r| r.components.len()),
                 None,
             ),
             Err(e) => (Vec::new(), 0, Some(output::error_chain(e))),

@@ -44,8 +44,11 @@ pub struct MatchResult {
     pub a: String,
     /// B's name.
     pub b: String,
-    /// Parts of A.
+    /// Parts of A (of its description under `hypothesis`).
     pub components_a: usize,
+    /// A's scale hypothesis that gave the match (`Analysed::hypothesis`): 0 unless A is a
+    /// scale-free query with a boundary, described under several.
+    pub hypothesis: usize,
     /// Parts of B.
     pub components_b: usize,
     /// Score in [0, 1].
@@ -114,12 +117,13 @@ pub fn match_analysed(
     params: &MatchParams,
 ) -> MatchResult {
     let t = Instant::now();
-    let m = a.match_with(b, params);
+    let (m, hypothesis) = a.match_with(b, params);
     let matching = t.elapsed().as_secs_f64() * 1e3;
     MatchResult {
         a: names.0.to_string(),
         b: names.1.to_string(),
-        components_a: a.description.components.len(),
+        components_a: a.hypothesis(hypothesis).components.len(),
+        hypothesis,
         components_b: b.description.components.len(),
         score: m.score,
         scale: m.scale,
@@ -158,7 +162,7 @@ pub fn match_profile(options: &MatchOptions, b: &Path) -> Result<Profile, Error>
 }
 
 /// Reads, analyses (in parallel) and matches the mesh files `a` and `b`; returns both
-/// analyses and the match.
+/// analyses (A's description the one of the hypothesis that gave the match) and the match.
 pub fn match_files(
     a: &Path,
     b: &Path,
@@ -171,7 +175,7 @@ pub fn match_files(
         || analyse_as(a, &profile, Role::Query),
         || analyse(b, &profile),
     );
-    let (x, y) = (x?, y?);
+    let (mut x, y) = (x?, y?);
     let params = MatchParams {
         pose_weight,
         verify_weight: x.verify_weight(verify_weight),
@@ -183,5 +187,6 @@ pub fn match_files(
         (&a.display().to_string(), &b.display().to_string()),
         &params,
     );
+    x.select(m.hypothesis);
     Ok((x, y, m))
 }

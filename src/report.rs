@@ -395,7 +395,7 @@ fn build(out: &Path, reader: &Reader, entries: &[QueryEntry], params: &ReportPar
                 escape(&rec.path.display().to_string()),
                 r.result.score,
                 r.result.matches.len(),
-                q.description.components.len(),
+                q.hypothesis(r.hypothesis).components.len(),
                 if r.result.rejected > 0 {
                     format!(", {} dropped by the layout check", r.result.rejected)
                 } else {

@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use keycomp_components::DetectParams;
 use keycomp_mesh::Mesh;
-use keycomp_retrieval::{MatchParams, Ranked, ShapeView, rank};
+use keycomp_retrieval::{MatchParams, Ranked, ShapeView, rank, rank_hypotheses};
 use serde::{Deserialize, Serialize};
 
 use crate::collection::Reader;
@@ -34,6 +34,9 @@ pub struct Hit {
     pub path: String,
     /// Score in [0, 1] (`keycomp_retrieval::ShapeMatch::score`).
     pub score: f64,
+    /// The query's scale hypothesis that gave the score (`Analysed::hypothesis`; the matched
+    /// query parts are that description's): 0 unless the query is a scale-free fragment.
+    pub hypothesis: usize,
     /// The matched parts.
     pub matches: Vec<PartMatch>,
 }
@@ -182,7 +185,35 @@ impl Searcher {
             centres: &centres,
             sample: query.sample(&params),
         };
-        Ok(rank(&self.reader, view, k, &params)?)
+        if query.hypothesis_count() == 1 {
+            return Ok(rank(&self.reader, view, k, &params)?);
+        }
+        // a fragment described under several scale hypotheses: each shape's best
+        let others: Vec<_> = (1..query.hypothesis_count())
+            .map(|h| {
+                let (d, l) = query.view_of(h);
+                (
+                    d,
+                    l,
+                    query.areas_of(h, &params),
+                    query.centres_of(h, &params),
+                )
+            })
+            .collect();
+        let mut views = vec![view];
+        views.extend(
+            others
+                .iter()
+                .enumerate()
+                .map(|(i, (d, l, a, c))| ShapeView {
+                    descriptors: d,
+                    layout: l,
+                    areas: a,
+                    centres: c,
+                    sample: query.sample_of(i + 1, &params),
+                }),
+        );
+        Ok(rank_hypotheses(&self.reader, &views, k, &params)?)
     }
 
     /// The serialisable answer for a query named `name` with its ranking `ranked` (from
@@ -216,6 +247,7 @@ impl Searcher {
                     rank: i + 1,
                     path: r.path.display().to_string(),
                     score: r.result.score,
+                    hypothesis: r.hypothesis,
                     matches: r
                         .result
                         .matches

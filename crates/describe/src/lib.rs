@@ -18,9 +18,9 @@
 //!    (factor 1.5), so a fragment scaled to its own unit area still finds, one or two levels
 //!    lower, patches of the size of the whole shape's; the descriptors are scale-free, so parts
 //!    of different levels are compared directly and the layout check estimates the scale. A
-//!    query with a boundary is described one step up the ladder
-//!    ([`DescribeParams::for_query`]), so that its radii meet the collection's at the kept
-//!    fractions fragments usually have.
+//!    query with a boundary is described one and two steps up the ladder, two scale
+//!    hypotheses ([`DescribeParams::for_query`]), so that its radii meet the collection's at
+//!    the kept fractions fragments usually have.
 //! 3. **The whole surface** (level L + 1), centred on the vertex nearest the area-weighted
 //!    centroid, unless [`DescribeParams::whole`] is off. Its layout distances are
 //!    [`NO_DISTANCE`].
@@ -165,44 +165,45 @@ impl Default for DescribeParams {
     }
 }
 
-/// Factor on a scale-free fragment query's patch radii ([`DescribeParams::for_query`]): one
-/// step of the default ladder of radii.
-pub const FRAGMENT_LEVEL_FACTOR: f64 = 1.5;
+/// Factors on a scale-free fragment query's patch radii, one per scale hypothesis
+/// ([`DescribeParams::for_query`]): one and two steps of the default ladder of radii.
+pub const FRAGMENT_LEVEL_FACTORS: [f64; 2] = [1.5, 2.25];
 
 impl DescribeParams {
-    /// The parameters a query `mesh` is described with, against shapes described with `self`.
+    /// The parameters a query `mesh` is described with against shapes described with `self`:
+    /// one set, or one per scale hypothesis (the query is then ranked under each, and each
+    /// shape keeps its best score: `keycomp_retrieval::rank_hypotheses`).
     ///
     /// Scale-free, every mesh is scaled to unit area on its own, so a fragment that keeps the
     /// share f of its source's area is magnified by 1/√f against its source: 1.3 to 2.2 for
     /// f from 60 % down to 20 %. Its patches of radius r cover what patches of radius r·√f
     /// cover on the source, so its smallest level holds patches smaller than any of the
-    /// source's and the source's largest level has no counterpart. A query with a boundary (a
-    /// fragment, a scan) therefore has its radii multiplied by [`FRAGMENT_LEVEL_FACTOR`] (1/√f
-    /// for f = 44 %; one step of the default ladder, so five of its six radii are the
-    /// collection's and a shape with holes queried whole still meets its own patches there).
-    /// A closed mesh, and every mesh in file units (where a fragment keeps its source's scale),
-    /// is described with `self`.
-    pub fn for_query(&self, mesh: &Mesh) -> DescribeParams {
+    /// source's and the source's largest levels have no counterpart. A query with a boundary
+    /// (a fragment, a scan) is therefore described with its radii multiplied by each of
+    /// [`FRAGMENT_LEVEL_FACTORS`] (1/√f for f = 44 % and 20 %; steps of the default ladder,
+    /// so most of its radii are the collection's, and a shape with holes queried whole still
+    /// meets its own patches). A closed mesh, and every mesh in file units (where a fragment
+    /// keeps its source's scale), is described with `self`.
+    pub fn for_query(&self, mesh: &Mesh) -> Vec<DescribeParams> {
         if Topology::new(mesh).boundary_vertices().is_empty() {
-            self.clone()
+            vec![self.clone()]
         } else {
             self.for_fragment()
         }
     }
 
     /// The parameters a query with a boundary is described with ([`DescribeParams::for_query`]):
-    /// scale-free, the radii multiplied by [`FRAGMENT_LEVEL_FACTOR`]; in file units, `self`.
-    pub fn for_fragment(&self) -> DescribeParams {
+    /// scale-free, one set per factor of [`FRAGMENT_LEVEL_FACTORS`]; in file units, `self`.
+    pub fn for_fragment(&self) -> Vec<DescribeParams> {
         match self.units {
-            Units::ScaleFree => DescribeParams {
-                levels: self
-                    .levels
-                    .iter()
-                    .map(|r| r * FRAGMENT_LEVEL_FACTOR)
-                    .collect(),
-                ..self.clone()
-            },
-            Units::File { .. } => self.clone(),
+            Units::ScaleFree => FRAGMENT_LEVEL_FACTORS
+                .iter()
+                .map(|f| DescribeParams {
+                    levels: self.levels.iter().map(|r| r * f).collect(),
+                    ..self.clone()
+                })
+                .collect(),
+            Units::File { .. } => vec![self.clone()],
         }
     }
 }

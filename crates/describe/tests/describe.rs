@@ -292,25 +292,32 @@ fn a_fragment_query_gets_patches_of_its_sources_sizes() {
     assert!((0.4..0.6).contains(&f), "kept {f}");
     let defaults = DescribeParams::default();
     // closed: described as indexed; a fragment in file units keeps its source's scale
-    assert_eq!(defaults.for_query(&mesh), defaults);
+    assert_eq!(defaults.for_query(&mesh), vec![defaults.clone()]);
     let file = DescribeParams {
         units: Units::File { length: 1.0 },
         ..DescribeParams::default()
     };
-    assert_eq!(file.for_query(&part), file);
-    let query = defaults.for_query(&part);
-    assert_eq!(query.levels.len(), defaults.levels.len());
-    // in the source's unit, the query's radii are within the ladder's half step of the
-    // source's, the indexed description's are not
+    assert_eq!(file.for_query(&part), vec![file.clone()]);
+    let hypotheses = defaults.for_query(&part);
+    assert_eq!(hypotheses.len(), 2);
+    // in the source's unit, one hypothesis has every radius within the ladder's half step of
+    // the source's; the indexed description has none
     let in_source = |r: f64| r * f.sqrt();
-    for (q, s) in query.levels.iter().zip(&defaults.levels) {
-        let off = (in_source(*q) / s).ln().abs();
-        assert!(off < 0.5 * 1.5f64.ln(), "query {q} against {s}: {off}");
-        assert!(off < (in_source(*s) / s).ln().abs(), "{q}, {s}");
-    }
+    let within = |levels: &[f64]| {
+        levels
+            .iter()
+            .zip(&defaults.levels)
+            .all(|(q, s)| (in_source(*q) / s).ln().abs() < 0.5 * 1.5f64.ln())
+    };
+    assert!(!within(&defaults.levels));
+    let query = hypotheses
+        .iter()
+        .find(|h| within(&h.levels))
+        .expect("a hypothesis at the fragment's scale");
+    assert_eq!(query.levels.len(), defaults.levels.len());
     // and the parts' measured radii follow: the largest patch of the middle level
     let det = detect(&part, &DetectParams::default()).expect("detect");
-    let d = describe_with(&part, &det, &query).expect("describe");
+    let d = describe_with(&part, &det, query).expect("describe");
     let level = 3u8;
     let widest = d
         .components

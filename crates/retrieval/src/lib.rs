@@ -61,8 +61,8 @@ mod query;
 pub mod verify;
 
 pub use query::{
-    CANDIDATES_PER_COMPONENT, MATCHED_CANDIDATES, Ranked, idf_weights, rank, record_areas,
-    record_centres, record_sample,
+    CANDIDATES_PER_COMPONENT, MATCHED_CANDIDATES, Ranked, idf_weights, rank, rank_hypotheses,
+    record_areas, record_centres, record_sample,
 };
 
 use keycomp_describe::Descriptor;

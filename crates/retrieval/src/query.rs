@@ -45,6 +45,9 @@ pub struct Ranked {
     pub path: PathBuf,
     /// The component matching and its score.
     pub result: ShapeMatch,
+    /// The query's description that gave it: 0, or with [`rank_hypotheses`] the index of the
+    /// scale hypothesis (the query's parts in `result` are that description's).
+    pub hypothesis: usize,
 }
 
 /// Inverse frequency of each query part in the index: `ln(1 + N / (1 + s))` with N the shapes
@@ -103,9 +106,43 @@ pub fn rank(
                     id,
                     path: reader.get(id)?.path.clone(),
                     result: ShapeMatch::none(),
+                    hypothesis: 0,
                 })
             }),
     );
+    ranked.truncate(k);
+    Ok(ranked)
+}
+
+/// [`rank`] for a query described under several scale hypotheses (`views`, preferred first:
+/// a fragment whose kept share of its source is unknown, described at several sizes): each
+/// shape scores its best over the hypotheses ([`Ranked::hypothesis`] says which; the first on
+/// ties), best first, ties by shape id; the `k` best. Costs one [`rank`] per hypothesis.
+pub fn rank_hypotheses(
+    reader: &IndexReader<DIM>,
+    views: &[ShapeView],
+    k: usize,
+    params: &MatchParams,
+) -> Result<Vec<Ranked>, IndexError> {
+    let mut best: BTreeMap<ShapeId, Ranked> = BTreeMap::new();
+    for (h, view) in views.iter().enumerate() {
+        for mut r in rank(reader, *view, k, params)? {
+            if best
+                .get(&r.id)
+                .is_none_or(|kept| r.result.score > kept.result.score)
+            {
+                r.hypothesis = h;
+                best.insert(r.id, r);
+            }
+        }
+    }
+    let mut ranked: Vec<Ranked> = best.into_values().collect();
+    ranked.sort_by(|a, b| {
+        b.result
+            .score
+            .total_cmp(&a.result.score)
+            .then(a.id.cmp(&b.id))
+    });
     ranked.truncate(k);
     Ok(ranked)
 }
@@ -248,6 +285,7 @@ fn match_candidates(
             id: candidates[i].id,
             path: candidates[i].rec.path.clone(),
             result,
+            hypothesis: 0,
         })
         .collect()
 }

@@ -3,7 +3,7 @@
 
 use keycomp_describe::{DIM, Descriptor};
 use keycomp_index::{ComponentRecord, ContentHash, IndexReader, IndexWriter, ShapeRecord};
-use keycomp_retrieval::{MatchParams, ShapeView, rank, record_areas};
+use keycomp_retrieval::{MatchParams, ShapeView, rank, rank_hypotheses, record_areas};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -102,4 +102,79 @@ fn pruned_top_k_equals_the_full_ranking() {
         pruned_any,
         "the test must have candidates beyond the top 10 with a score"
     );
+}
+
+#[test]
+fn hypotheses_rank_each_shape_by_its_best_score() {
+    let mut rng = ChaCha8Rng::seed_from_u64(12);
+    let classes: Vec<Vec<Descriptor>> = (0..4)
+        .map(|_| {
+            (0..8)
+                .map(|_| std::array::from_fn(|_| rng.random_range(0.0..0.15)))
+                .collect()
+        })
+        .collect();
+    let dir = tempfile::tempdir().expect("tempdir");
+    {
+        let mut w = IndexWriter::<DIM>::create_or_open(dir.path()).expect("index");
+        w.add_batch(records(&mut rng, &classes, 60)).expect("add");
+    }
+    let reader = IndexReader::<DIM>::open(dir.path()).expect("open");
+    let params = MatchParams::default();
+    for q in 0..6 {
+        // two descriptions of one query: the parts of two different shapes
+        let srcs = [
+            reader.shapes()[q * 5].record.clone(),
+            reader.shapes()[q * 5 + 2].record.clone(),
+        ];
+        let descs: Vec<Vec<Descriptor>> = srcs
+            .iter()
+            .map(|s| {
+                s.components
+                    .iter()
+                    .map(|c| jitter(&mut rng, &c.descriptor, 0.03))
+                    .collect()
+            })
+            .collect();
+        let areas: Vec<Vec<f32>> = srcs.iter().map(|s| record_areas(s, &params)).collect();
+        let views: Vec<ShapeView> = (0..2)
+            .map(|h| ShapeView {
+                descriptors: &descs[h],
+                layout: &srcs[h].layout,
+                areas: &areas[h],
+                centres: &[],
+                sample: &[],
+            })
+            .collect();
+        // the oracle: every shape's best score over the two full rankings
+        let mut best: std::collections::BTreeMap<_, (f64, usize)> = Default::default();
+        for (h, v) in views.iter().enumerate() {
+            for r in rank(&reader, *v, 10_000, &params).expect("rank") {
+                let e = best.entry(r.id).or_insert((r.result.score, h));
+                if r.result.score > e.0 {
+                    *e = (r.result.score, h);
+                }
+            }
+        }
+        let all = rank_hypotheses(&reader, &views, 10_000, &params).expect("rank");
+        assert_eq!(all.len(), best.len(), "query {q}");
+        for w in all.windows(2) {
+            assert!(
+                w[0].result.score >= w[1].result.score,
+                "query {q}: best first"
+            );
+        }
+        for r in &all {
+            assert_eq!((r.result.score, r.hypothesis), best[&r.id], "query {q}");
+        }
+        assert!(
+            all.iter().any(|r| r.hypothesis == 1),
+            "query {q}: both used"
+        );
+        // and the first k are the first k of the whole ranking
+        let top = rank_hypotheses(&reader, &views, 5, &params).expect("rank");
+        for (a, b) in top.iter().zip(&all) {
+            assert_eq!((a.id, a.hypothesis), (b.id, b.hypothesis), "query {q}");
+        }
+    }
 }
