@@ -601,4 +601,57 @@ mod tests {
             .unwrap_err();
         assert!(e.to_string().contains("missing.off"), "{e}");
     }
+
+    /// A scale-free query with a boundary is described under each scale hypothesis, with the
+    /// patch radii of `DescribeParams::for_fragment`; a closed query, an indexed shape and a
+    /// file-unit query have one description. A match keeps the best hypothesis's score, and
+    /// `select` makes it the description.
+    #[test]
+    fn fragment_queries_get_one_description_per_scale_hypothesis() {
+        let whole = synth::textured_protrusion_sphere(5);
+        let (half, _) = keycomp_mesh::cut::cut_by_plane(
+            &whole,
+            keycomp_mesh::Point3::origin(),
+            keycomp_mesh::Vector3::z(),
+        );
+        let profile = Profile::current(&DetectParams::default());
+        let q = analyse_mesh_as(half.clone(), &profile, Role::Query).expect("analyse");
+        let hypotheses = profile.describe.for_fragment();
+        assert_eq!(q.hypothesis_count(), hypotheses.len());
+        assert!(q.hypothesis_count() > 1);
+        for (h, params) in hypotheses.iter().enumerate() {
+            let det = detect(&half, &profile.detect).expect("detect");
+            let d = describe_with(&half, &det, params).expect("describe");
+            assert_eq!(q.hypothesis(h), &d, "hypothesis {h}");
+        }
+        let indexed = analyse_mesh(half.clone(), &profile).expect("analyse");
+        assert_eq!(indexed.hypothesis_count(), 1);
+        let det = detect(&half, &profile.detect).expect("detect");
+        let as_indexed = describe_with(&half, &det, &profile.describe).expect("describe");
+        assert_eq!(indexed.description, as_indexed);
+        let closed = analyse_mesh_as(whole.clone(), &profile, Role::Query).expect("analyse");
+        assert_eq!(closed.hypothesis_count(), 1);
+        let file = Profile::with(
+            &DetectParams::default(),
+            DescribeParams {
+                units: keycomp_describe::Units::File { length: 1.0 },
+                ..DescribeParams::default()
+            },
+        );
+        let in_file = analyse_mesh_as(half.clone(), &file, Role::Query).expect("analyse");
+        assert_eq!(in_file.hypothesis_count(), 1);
+        // the match is the best hypothesis's
+        let target = analyse_mesh(whole, &profile).expect("analyse");
+        let params = keycomp_retrieval::MatchParams::default();
+        let (m, h) = q.match_with(&target, &params);
+        for other in 0..q.hypothesis_count() {
+            assert!(q.match_hypothesis(other, &target, &params).score <= m.score);
+        }
+        let mut chosen = analyse_mesh_as(half, &profile, Role::Query).expect("analyse");
+        chosen.select(h);
+        assert_eq!(&chosen.description, q.hypothesis(h));
+        assert_eq!(chosen.hypothesis_count(), q.hypothesis_count());
+        let (again, h0) = chosen.match_with(&target, &params);
+        assert_eq!((again.score, h0), (m.score, 0));
+    }
 }

@@ -34,6 +34,9 @@ pub struct Hit {
     pub path: String,
     /// Score in [0, 1] (`keycomp_retrieval::ShapeMatch::score`).
     pub score: f64,
+    /// Geometric verification's fitness (`keycomp_retrieval::ShapeMatch::verified`): the share
+    /// of the query's surface sample on the shape's once aligned; `None` when it did not run.
+    pub verified: Option<f64>,
     /// The query's scale hypothesis that gave the score (`Analysed::hypothesis`; the matched
     /// query parts are that description's): 0 unless the query is a scale-free fragment.
     pub hypothesis: usize,
@@ -247,6 +250,7 @@ impl Searcher {
                     rank: i + 1,
                     path: r.path.display().to_string(),
                     score: r.result.score,
+                    verified: r.result.verified,
                     hypothesis: r.hypothesis,
                     matches: r
                         .result

@@ -428,6 +428,9 @@ fn match_verifies_a_fragment_on_its_source_by_default() {
     // a perfect alignment puts about 1 − exp(−π·0.03²·512) ≈ 0.77 of a unit-area sample
     // within 0.03 of 512 other points drawn on the same surface
     assert!(fit > 0.65, "{on_source}");
+    // the half is described under two scale hypotheses, the closed whole under one
+    assert!(on_source["hypothesis"].as_u64().expect("hypothesis") < 2);
+    assert_eq!(run(&whole, &half_path, &[])["hypothesis"], 0);
     let on_bent = run(&half_path, &bent, &[]);
     let bent_fit = on_bent["verified"].as_f64().expect("verified");
     assert!(bent_fit < fit, "{on_bent}");

@@ -149,6 +149,9 @@ fn index_commands_on_synthetic_shapes() {
             .ends_with("textured.off")
     );
     assert!((v["results"][0]["score"].as_f64().expect("score") - 1.0).abs() < 1e-6);
+    // a closed query: one description, not verified
+    assert_eq!(v["results"][0]["hypothesis"], 0);
+    assert!(v["results"][0]["verified"].is_null());
 
     // changing a file replaces its entry
     write_off(
