@@ -117,34 +117,43 @@ pub fn rank(
 /// [`rank`] for a query described under several scale hypotheses (`views`, preferred first:
 /// a fragment whose kept share of its source is unknown, described at several sizes): each
 /// shape scores its best over the hypotheses ([`Ranked::hypothesis`] says which; the first on
-/// ties), best first, ties by shape id; the `k` best. Costs one [`rank`] per hypothesis.
+/// ties), best first; shapes of equal score in the order of their best place in a
+/// hypothesis's ranking (so that one hypothesis gives exactly [`rank`]'s order), then by id;
+/// the `k` best. Costs one [`rank`] per hypothesis.
 pub fn rank_hypotheses(
     reader: &IndexReader<DIM>,
     views: &[ShapeView],
     k: usize,
     params: &MatchParams,
 ) -> Result<Vec<Ranked>, IndexError> {
-    let mut best: BTreeMap<ShapeId, Ranked> = BTreeMap::new();
+    // each shape's best result and its best place in any hypothesis's ranking
+    let mut best: BTreeMap<ShapeId, (Ranked, usize)> = BTreeMap::new();
     for (h, view) in views.iter().enumerate() {
-        for mut r in rank(reader, *view, k, params)? {
-            if best
-                .get(&r.id)
-                .is_none_or(|kept| r.result.score > kept.result.score)
-            {
-                r.hypothesis = h;
-                best.insert(r.id, r);
+        for (place, mut r) in rank(reader, *view, k, params)?.into_iter().enumerate() {
+            r.hypothesis = h;
+            match best.get_mut(&r.id) {
+                None => {
+                    best.insert(r.id, (r, place));
+                }
+                Some((kept, p)) => {
+                    *p = (*p).min(place);
+                    if r.result.score > kept.result.score {
+                        *kept = r;
+                    }
+                }
             }
         }
     }
-    let mut ranked: Vec<Ranked> = best.into_values().collect();
-    ranked.sort_by(|a, b| {
+    let mut ranked: Vec<(Ranked, usize)> = best.into_values().collect();
+    ranked.sort_by(|(a, pa), (b, pb)| {
         b.result
             .score
             .total_cmp(&a.result.score)
+            .then(pa.cmp(pb))
             .then(a.id.cmp(&b.id))
     });
     ranked.truncate(k);
-    Ok(ranked)
+    Ok(ranked.into_iter().map(|(r, _)| r).collect())
 }
 
 /// Matches the candidates `by_vote` (best-voted first) part to part and returns the `k` best

@@ -171,6 +171,14 @@ fn hypotheses_rank_each_shape_by_its_best_score() {
             all.iter().any(|r| r.hypothesis == 1),
             "query {q}: both used"
         );
+        // one hypothesis: exactly rank's order
+        let one = rank_hypotheses(&reader, &views[..1], 10_000, &params).expect("rank");
+        let alone = rank(&reader, views[0], 10_000, &params).expect("rank");
+        assert_eq!(
+            one.iter().map(|r| r.id).collect::<Vec<_>>(),
+            alone.iter().map(|r| r.id).collect::<Vec<_>>(),
+            "query {q}"
+        );
         // and the first k are the first k of the whole ranking
         let top = rank_hypotheses(&reader, &views, 5, &params).expect("rank");
         for (a, b) in top.iter().zip(&all) {
