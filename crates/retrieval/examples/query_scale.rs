@@ -12,12 +12,19 @@
 //! search (approximate from `keycomp_index::IVF_MIN_COMPONENTS` components) and with the exact
 //! one (`SearchMode::Exact`), and how many queries get the exact search's top 10. Last, 1 % more
 //! shapes are added and a new reader's first search is timed: it updates the search cache.
+//!
+//! With `FRAGMENTS=DIR` in the environment (DIR: the record cache of a scale-free `keycomp
+//! bench retrieval` run, `OUT/cache`), a second table times real fragment queries described
+//! under two scale hypotheses (the cached query records with more than one description, the
+//! first QUERIES by file name): the candidate search of every part of every description, and
+//! `rank_hypotheses` for the top 10, as `keycomp query` ranks a fragment (without
+//! verification, as in the first table).
 
 use std::time::Instant;
 
 use keycomp_describe::DIM;
 use keycomp_index::{IndexReader, IndexWriter, SearchMode, synthetic};
-use keycomp_retrieval::{CANDIDATES_PER_COMPONENT, MatchParams, ShapeView, rank};
+use keycomp_retrieval::{CANDIDATES_PER_COMPONENT, MatchParams, ShapeView, rank, rank_hypotheses};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -58,6 +65,27 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ),
         None => None,
     };
+    // fragment queries: cached records of every scale hypothesis of a query
+    let fragments: Vec<Vec<keycomp_index::ShapeRecord<DIM>>> = match std::env::var_os("FRAGMENTS") {
+        Some(dir) => {
+            let mut files: Vec<_> = std::fs::read_dir(dir)?
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|p| p.extension().is_some_and(|x| x == "json"))
+                .collect();
+            files.sort();
+            files
+                .iter()
+                .filter_map(|f| std::fs::read(f).ok())
+                .filter_map(|b| {
+                    serde_json::from_slice::<Vec<keycomp_index::ShapeRecord<DIM>>>(&b).ok()
+                })
+                .filter(|r| r.len() > 1)
+                .take(queries)
+                .collect()
+        }
+        None => Vec::new(),
+    };
+    let mut fragment_rows = Vec::new();
     let mut jitter = ChaCha8Rng::seed_from_u64(2);
     let mut records = |range: std::ops::Range<u64>| -> Vec<keycomp_index::ShapeRecord<DIM>> {
         match &source {
@@ -170,6 +198,37 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             b.sort_unstable();
             same_set += usize::from(a == b);
         }
+        if !fragments.is_empty() {
+            let (mut search, mut times, mut parts) = (Vec::new(), Vec::new(), Vec::new());
+            for hyps in &fragments {
+                let descs: Vec<Vec<[f32; DIM]>> = hyps
+                    .iter()
+                    .map(|r| r.components.iter().map(|c| c.descriptor).collect())
+                    .collect();
+                let t = Instant::now();
+                for d in &descs {
+                    reader.nearest_components_batch(d, CANDIDATES_PER_COMPONENT)?;
+                }
+                search.push(t.elapsed().as_secs_f64() * 1e3);
+                let views: Vec<ShapeView> = descs
+                    .iter()
+                    .zip(hyps)
+                    .map(|(d, r)| view(d, &r.layout))
+                    .collect();
+                let t = Instant::now();
+                let r = rank_hypotheses(&reader, &views, 10, &params)?;
+                times.push(t.elapsed().as_secs_f64() * 1e3);
+                assert!(!r.is_empty());
+                parts.push(descs.iter().map(Vec::len).sum::<usize>() as f64);
+            }
+            fragment_rows.push(format!(
+                "| {n} | {} | {:.0} | {:.2} | {:.2} |",
+                fragments.len(),
+                median(parts),
+                median(search),
+                median(times)
+            ));
+        }
         // an add of 1 % more shapes: the next process's first search updates the cache
         let components = reader.component_count();
         drop((reader, exact));
@@ -194,6 +253,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             median(exact_search),
             median(exact_times),
         );
+    }
+    if !fragment_rows.is_empty() {
+        println!(
+            "\n| shapes | fragment queries | parts (both descriptions) | candidate search (ms) | query, top 10 (ms) |"
+        );
+        println!("|---:|---:|---:|---:|---:|");
+        for row in fragment_rows {
+            println!("{row}");
+        }
     }
     Ok(())
 }
