@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use keycomp_components::{DetectError, DetectParams, Detection, detect};
-use keycomp_describe::{DIM, DescribeError, DescribeParams, ShapeDescription, describe_with};
+use keycomp_describe::{DIM, DescribeError, DescribeParams, ShapeDescription, describe_all};
 use keycomp_index::{ComponentRecord, ContentHash, ShapeRecord, canonical_path};
 use keycomp_mesh::{Format, Mesh, MeshError, read_mesh};
 use rayon::prelude::*;
@@ -180,17 +180,16 @@ fn analyse_in(
         Role::Indexed => vec![profile.describe.clone()],
         Role::Query => profile.describe.for_query(&mesh),
     };
-    let mut hypotheses = params
-        .iter()
-        .map(|p| {
-            describe_with(&mesh, &detection, p).map_err(|source| Error::Description {
-                path: path.map(Path::to_path_buf),
-                source,
-            })
-        })
-        .collect::<Result<Vec<_>, _>>()?;
+    let description_error = |source| Error::Description {
+        path: path.map(Path::to_path_buf),
+        source,
+    };
+    // the hypotheses share the smoothed surface, its fits and the fronts
+    let mut hypotheses = describe_all(&mesh, &detection, &params).map_err(description_error)?;
     if hypotheses.is_empty() {
-        return Err(Error::Invalid("no description parameters".into()));
+        return Err(description_error(DescribeError::Params(
+            "no description parameters".into(),
+        )));
     }
     let description = hypotheses.remove(0);
     Ok(Analysed {
@@ -576,6 +575,7 @@ pub fn record_of_mesh(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use keycomp_describe::describe_with;
     use keycomp_mesh::{synth, write_off};
 
     /// A mesh analysed in memory gives the parts of the same mesh read from a file, and its

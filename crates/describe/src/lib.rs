@@ -447,6 +447,50 @@ pub fn describe_with(
     det: &Detection,
     params: &DescribeParams,
 ) -> Result<ShapeDescription, DescribeError> {
+    describe_all(mesh, det, std::slice::from_ref(params))?
+        .pop()
+        .ok_or_else(|| DescribeError::Params("no description parameters".into()))
+}
+
+/// [`describe_with`] under each of `all`, in order (a query's scale hypotheses,
+/// [`DescribeParams::for_query`]); none for an empty `all`. Parameters that differ from the
+/// first only in their levels share its smoothed surface, Harris fits and geodesic fronts,
+/// computed once: another ladder of radii costs only the fronts of its new patch centres.
+/// Other parameters are described on their own.
+pub fn describe_all(
+    mesh: &Mesh,
+    det: &Detection,
+    all: &[DescribeParams],
+) -> Result<Vec<ShapeDescription>, DescribeError> {
+    let Some(first) = all.first() else {
+        return Ok(Vec::new());
+    };
+    for params in all {
+        check(mesh, det, params)?;
+    }
+    let (surface, boundary, solver) = prepare(mesh, det, first)?;
+    let mut fronts = Fronts {
+        solver: &solver,
+        ws: solver.workspace(),
+        done: HashMap::new(),
+    };
+    all.iter()
+        .map(|params| {
+            let same_surface = DescribeParams {
+                levels: params.levels.clone(),
+                ..first.clone()
+            } == *params;
+            if same_surface {
+                describe_parts(&surface, &boundary, det, params, &mut fronts)
+            } else {
+                describe_with(mesh, det, params)
+            }
+        })
+        .collect()
+}
+
+/// Refuses a detection that is not `mesh`'s and parameters that ask for unbounded work.
+fn check(mesh: &Mesh, det: &Detection, params: &DescribeParams) -> Result<(), DescribeError> {
     let n = mesh.num_vertices();
     for &v in det
         .components
@@ -483,6 +527,24 @@ pub fn describe_with(
             params.smoothing_iterations
         )));
     }
+    if let Units::File { length } = params.units
+        && !(length.is_finite() && length > 0.0)
+    {
+        return Err(DescribeError::Params(format!(
+            "the length unit must be positive, got {length}"
+        )));
+    }
+    Ok(())
+}
+
+/// The surface `params` describes `mesh` on (scaled to the length unit, smoothed, with its
+/// Harris fits), which vertices lie on its boundary, and its geodesic solver.
+fn prepare(
+    mesh: &Mesh,
+    det: &Detection,
+    params: &DescribeParams,
+) -> Result<(Surface, Vec<bool>, GeodesicSolver), DescribeError> {
+    let n = mesh.num_vertices();
     let area = geometry::total_area(mesh);
     let scale = match params.units {
         Units::ScaleFree => {
@@ -492,14 +554,7 @@ pub fn describe_with(
                 1.0
             }
         }
-        Units::File { length } => {
-            if !(length.is_finite() && length > 0.0) {
-                return Err(DescribeError::Params(format!(
-                    "the length unit must be positive, got {length}"
-                )));
-            }
-            1.0 / length
-        }
+        Units::File { length } => 1.0 / length,
     };
     let mut norm = Mesh {
         positions: mesh.positions.iter().map(|p| p * scale).collect(),
@@ -541,15 +596,23 @@ pub fn describe_with(
         file_units: matches!(params.units, Units::File { .. }),
     };
     let boundary: Vec<bool> = (0..n as u32).map(|v| topo.is_boundary(v)).collect();
+    Ok((surface, boundary, solver))
+}
+
+/// The parts of the prepared `surface` under `params` (see *Parts*), their descriptors, layout
+/// and the surface sample; fronts come from (and go to) `fronts`.
+fn describe_parts(
+    surface: &Surface,
+    boundary: &[bool],
+    det: &Detection,
+    params: &DescribeParams,
+    fronts: &mut Fronts,
+) -> Result<ShapeDescription, DescribeError> {
+    let n = surface.mesh.num_vertices();
     let clipped = |vs: &[u32]| params.complete_only && vs.iter().any(|&v| boundary[v as usize]);
     // parts reaching the boundary, used only when the mesh has no complete part
     let mut clipped_parts: Vec<Part> = Vec::new();
     let total: f64 = surface.areas.iter().sum();
-    let mut fronts = Fronts {
-        solver: &solver,
-        ws: solver.workspace(),
-        done: HashMap::new(),
-    };
     let mut is_keypoint = vec![false; n];
     for &k in &det.keypoints {
         is_keypoint[k as usize] = true;
@@ -685,7 +748,7 @@ pub fn describe_with(
         for (cj, &o) in centers.iter().enumerate() {
             layout[ci * m + cj] = d[o as usize] as f32;
         }
-        let (descriptor, radius, area) = describe_part(&surface, &p, d);
+        let (descriptor, radius, area) = describe_part(surface, &p, d);
         let at = surface.mesh.positions[p.center as usize];
         components.push(ComponentDescription {
             descriptor,

@@ -331,3 +331,32 @@ fn a_fragment_query_gets_patches_of_its_sources_sizes() {
         "{widest} for {want}"
     );
 }
+
+#[test]
+fn describing_under_several_parameters_equals_describing_under_each() {
+    // the ladders share the surface and its fronts; other parameters are described apart
+    let mesh = synth::textured_protrusion_sphere(5);
+    let det = detect(&mesh, &DetectParams::default()).expect("detect");
+    let base = DescribeParams::default();
+    let all = vec![
+        base.clone(),
+        DescribeParams {
+            levels: vec![0.1, 0.3],
+            ..base.clone()
+        },
+        DescribeParams {
+            smoothing_iterations: 5,
+            ..base.clone()
+        },
+    ];
+    let together = keycomp_describe::describe_all(&mesh, &det, &all).expect("describe");
+    assert_eq!(together.len(), all.len());
+    for (d, params) in together.iter().zip(&all) {
+        assert_eq!(d, &describe_with(&mesh, &det, params).expect("describe"));
+    }
+    assert!(
+        keycomp_describe::describe_all(&mesh, &det, &[])
+            .expect("nothing")
+            .is_empty()
+    );
+}
