@@ -603,7 +603,7 @@ mod tests {
     }
 
     /// A scale-free query with a boundary is described under each scale hypothesis, with the
-    /// patch radii of `DescribeParams::for_fragment`; a closed query, an indexed shape and a
+    /// patch radii of `DescribeParams::for_query_with_boundary`; a closed query, an indexed shape and a
     /// file-unit query have one description. A match keeps the best hypothesis's score, and
     /// `select` makes it the description.
     #[test]
@@ -616,7 +616,7 @@ mod tests {
         );
         let profile = Profile::current(&DetectParams::default());
         let q = analyse_mesh_as(half.clone(), &profile, Role::Query).expect("analyse");
-        let hypotheses = profile.describe.for_fragment();
+        let hypotheses = profile.describe.for_query_with_boundary(true);
         assert_eq!(q.hypothesis_count(), hypotheses.len());
         assert!(q.hypothesis_count() > 1);
         for (h, params) in hypotheses.iter().enumerate() {

@@ -1044,12 +1044,15 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
     }
 
     // 3. whole-shape queries, each analysed as `keycomp query` would: a shape with a boundary
-    // is described as a fragment (DescribeParams::for_query), closed ones as indexed
-    let fragment_params = params.describe.for_fragment() != [params.describe.clone()];
+    // is described as a fragment (DescribeParams::for_query), closed ones as indexed: their
+    // index record is their query record
     let as_queries: Vec<Option<Vec<ShapeRecord<DIM>>>> = (0..n)
         .into_par_iter()
         .map(|i| -> Result<Option<Vec<ShapeRecord<DIM>>>> {
-            if !(fragment_params && records[i].boundary_vertices > 0) {
+            let as_query = params
+                .describe
+                .for_query_with_boundary(records[i].boundary_vertices > 0);
+            if as_query == [params.describe.clone()] {
                 return Ok(None);
             }
             let hash = records[i].content_hash;

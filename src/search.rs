@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use keycomp_components::DetectParams;
 use keycomp_mesh::Mesh;
-use keycomp_retrieval::{MatchParams, Ranked, ShapeView, rank, rank_hypotheses};
+use keycomp_retrieval::{MatchParams, Ranked, ShapeView, rank_hypotheses};
 use serde::{Deserialize, Serialize};
 
 use crate::collection::Reader;
@@ -173,49 +173,32 @@ impl Searcher {
     /// candidates).
     pub fn rank(&self, query: &Analysed, k: usize) -> Result<Vec<Ranked>, Error> {
         check_k(k)?;
-        let (descriptors, layout) = query.view();
         let params = query.match_params(&MatchParams {
             pose_weight: self.pose_weight,
             verify_weight: query.verify_weight(self.verify_weight),
             ..MatchParams::default()
         });
-        let areas = query.areas(&params);
-        let centres = query.centres(&params);
-        let view = ShapeView {
-            descriptors: &descriptors,
-            layout,
-            areas: &areas,
-            centres: &centres,
-            sample: query.sample(&params),
-        };
-        if query.hypothesis_count() == 1 {
-            return Ok(rank(&self.reader, view, k, &params)?);
-        }
-        // a fragment described under several scale hypotheses: each shape's best
-        let others: Vec<_> = (1..query.hypothesis_count())
+        // one view per description (a scale-free fragment has one per scale hypothesis)
+        let parts: Vec<_> = (0..query.hypothesis_count())
             .map(|h| {
-                let (d, l) = query.view_of(h);
                 (
-                    d,
-                    l,
+                    query.view_of(h),
                     query.areas_of(h, &params),
                     query.centres_of(h, &params),
                 )
             })
             .collect();
-        let mut views = vec![view];
-        views.extend(
-            others
-                .iter()
-                .enumerate()
-                .map(|(i, (d, l, a, c))| ShapeView {
-                    descriptors: d,
-                    layout: l,
-                    areas: a,
-                    centres: c,
-                    sample: query.sample_of(i + 1, &params),
-                }),
-        );
+        let views: Vec<ShapeView> = parts
+            .iter()
+            .enumerate()
+            .map(|(h, ((descriptors, layout), areas, centres))| ShapeView {
+                descriptors,
+                layout,
+                areas,
+                centres,
+                sample: query.sample_of(h, &params),
+            })
+            .collect();
         Ok(rank_hypotheses(&self.reader, &views, k, &params)?)
     }
 

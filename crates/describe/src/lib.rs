@@ -185,25 +185,21 @@ impl DescribeParams {
     /// meets its own patches). A closed mesh, and every mesh in file units (where a fragment
     /// keeps its source's scale), is described with `self`.
     pub fn for_query(&self, mesh: &Mesh) -> Vec<DescribeParams> {
-        if Topology::new(mesh).boundary_vertices().is_empty() {
-            vec![self.clone()]
-        } else {
-            self.for_fragment()
-        }
+        self.for_query_with_boundary(!Topology::new(mesh).boundary_vertices().is_empty())
     }
 
-    /// The parameters a query with a boundary is described with ([`DescribeParams::for_query`]):
-    /// scale-free, one set per factor of [`FRAGMENT_LEVEL_FACTORS`]; in file units, `self`.
-    pub fn for_fragment(&self) -> Vec<DescribeParams> {
+    /// [`DescribeParams::for_query`] for a query that has a boundary or not (as an index
+    /// record says, `boundary_vertices > 0`).
+    pub fn for_query_with_boundary(&self, boundary: bool) -> Vec<DescribeParams> {
         match self.units {
-            Units::ScaleFree => FRAGMENT_LEVEL_FACTORS
+            Units::ScaleFree if boundary => FRAGMENT_LEVEL_FACTORS
                 .iter()
                 .map(|f| DescribeParams {
                     levels: self.levels.iter().map(|r| r * f).collect(),
                     ..self.clone()
                 })
                 .collect(),
-            Units::File { .. } => vec![self.clone()],
+            _ => vec![self.clone()],
         }
     }
 }

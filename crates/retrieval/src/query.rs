@@ -119,13 +119,16 @@ pub fn rank(
 /// shape scores its best over the hypotheses ([`Ranked::hypothesis`] says which; the first on
 /// ties), best first; shapes of equal score in the order of their best place in a
 /// hypothesis's ranking (so that one hypothesis gives exactly [`rank`]'s order), then by id;
-/// the `k` best. Costs one [`rank`] per hypothesis.
+/// the `k` best. Costs one [`rank`] per hypothesis; one hypothesis is [`rank`] itself.
 pub fn rank_hypotheses(
     reader: &IndexReader<DIM>,
     views: &[ShapeView],
     k: usize,
     params: &MatchParams,
 ) -> Result<Vec<Ranked>, IndexError> {
+    if let [view] = views {
+        return rank(reader, *view, k, params);
+    }
     // each shape's best result and its best place in any hypothesis's ranking
     let mut best: BTreeMap<ShapeId, (Ranked, usize)> = BTreeMap::new();
     for (h, view) in views.iter().enumerate() {

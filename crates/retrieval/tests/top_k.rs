@@ -53,12 +53,17 @@ fn records(rng: &mut ChaCha8Rng, classes: &[Vec<Descriptor>], n: usize) -> Vec<S
         .collect()
 }
 
-#[test]
-fn pruned_top_k_equals_the_full_ranking() {
-    let mut rng = ChaCha8Rng::seed_from_u64(11);
-    let classes: Vec<Vec<Descriptor>> = (0..5)
+/// An index of `shapes` records of `classes` classes with `parts` prototype parts each (see
+/// [`records`]), in a temporary folder kept alive by the first value.
+fn index(
+    rng: &mut ChaCha8Rng,
+    classes: usize,
+    parts: usize,
+    shapes: usize,
+) -> (tempfile::TempDir, IndexReader<DIM>) {
+    let classes: Vec<Vec<Descriptor>> = (0..classes)
         .map(|_| {
-            (0..10)
+            (0..parts)
                 .map(|_| std::array::from_fn(|_| rng.random_range(0.0..0.15)))
                 .collect()
         })
@@ -66,9 +71,16 @@ fn pruned_top_k_equals_the_full_ranking() {
     let dir = tempfile::tempdir().expect("tempdir");
     {
         let mut w = IndexWriter::<DIM>::create_or_open(dir.path()).expect("index");
-        w.add_batch(records(&mut rng, &classes, 150)).expect("add");
+        w.add_batch(records(rng, &classes, shapes)).expect("add");
     }
     let reader = IndexReader::<DIM>::open(dir.path()).expect("open");
+    (dir, reader)
+}
+
+#[test]
+fn pruned_top_k_equals_the_full_ranking() {
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    let (_dir, reader) = index(&mut rng, 5, 10, 150);
     let params = MatchParams::default();
     let mut pruned_any = false;
     for q in 0..12 {
@@ -107,19 +119,7 @@ fn pruned_top_k_equals_the_full_ranking() {
 #[test]
 fn hypotheses_rank_each_shape_by_its_best_score() {
     let mut rng = ChaCha8Rng::seed_from_u64(12);
-    let classes: Vec<Vec<Descriptor>> = (0..4)
-        .map(|_| {
-            (0..8)
-                .map(|_| std::array::from_fn(|_| rng.random_range(0.0..0.15)))
-                .collect()
-        })
-        .collect();
-    let dir = tempfile::tempdir().expect("tempdir");
-    {
-        let mut w = IndexWriter::<DIM>::create_or_open(dir.path()).expect("index");
-        w.add_batch(records(&mut rng, &classes, 60)).expect("add");
-    }
-    let reader = IndexReader::<DIM>::open(dir.path()).expect("open");
+    let (_dir, reader) = index(&mut rng, 4, 8, 60);
     let params = MatchParams::default();
     for q in 0..6 {
         // two descriptions of one query: the parts of two different shapes
