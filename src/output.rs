@@ -15,9 +15,11 @@ pub fn is_broken_pipe(e: &anyhow::Error) -> bool {
     })
 }
 
-/// Prints `value` as pretty JSON on stdout, followed by a newline.
+/// Prints `value` as pretty JSON on stdout, followed by a newline. Buffered: stdout is line
+/// buffered, and pretty JSON has a line per value (a detection's vertex lists made tens of
+/// thousands of writes).
 pub fn print_json<T: Serialize>(value: &T) -> Result<()> {
-    let mut out = io::stdout().lock();
+    let mut out = io::BufWriter::with_capacity(1 << 16, io::stdout().lock());
     serde_json::to_writer_pretty(&mut out, value).map_err(io::Error::from)?;
     writeln!(out)?;
     out.flush()?;
