@@ -50,4 +50,15 @@ pub enum GeodesicError {
         /// 0-based face index.
         face: usize,
     },
+    /// A landmark is not an index into the sources, or appears twice.
+    #[error(
+        "landmark {landmark} is not a distinct index into the {sources} sources; \
+         pass each landmark once, as a position in the sources slice"
+    )]
+    BadLandmark {
+        /// The offending landmark index.
+        landmark: usize,
+        /// Number of sources.
+        sources: usize,
+    },
 }

@@ -162,5 +162,5 @@ mod solver;
 mod unfold;
 
 pub use error::GeodesicError;
-pub use matrix::{DistanceMatrix, distance_matrix};
+pub use matrix::{DistanceMatrix, LandmarkStats, distance_matrix, landmark_distance_matrix};
 pub use solver::{GeodesicParams, GeodesicSolver, ObtuseStats, QueueKind, Workspace};

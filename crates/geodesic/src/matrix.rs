@@ -22,6 +22,29 @@
 //! Rows are computed independently and written in source order, so the result does not depend
 //! on the number of threads or their scheduling. Cost: K fronts of at most O(n log n) each,
 //! divided among the threads, plus O(K²).
+//!
+//! # Landmark fronts
+//!
+//! [`landmark_distance_matrix`] spends full fronts on a few sources only (a deviation from the
+//! paper, which runs one per keypoint; in the spirit of landmark MDS, V. de Silva and
+//! J. B. Tenenbaum, "Sparse multidimensional scaling using landmark points", Stanford
+//! technical report, 2004, which also measures every point against a few landmarks only):
+//!
+//! 1. Each landmark l runs a full front (to every source): its row `d(l, ·)` is measured.
+//!    The *covering radius* h is the largest distance from a source to its nearest landmark.
+//! 2. Every other source runs a front stopped at `ρ = radius_factor · h`
+//!    ([`GeodesicSolver::solve_within`]): its distances to the sources within ρ are measured.
+//!    A source no landmark reaches (a piece without a landmark) runs a full front instead.
+//! 3. A pair measured from both ends gets the average, as above; from one end, that value;
+//!    from neither (both non-landmarks, farther than ρ apart), the shortest path through one
+//!    landmark, `min_l d(i, l) + d(l, j)`: an upper bound of the geodesic distance, off by
+//!    the detour through the best landmark, which is small for pairs farther apart than
+//!    the landmarks' spacing (ρ ≥ 2h puts every estimated pair beyond twice that radius).
+//!
+//! Cost: L full fronts, K − L fronts over the area within ρ, and O(K² L) for the estimates.
+//! With L = 100 of the K = 500 keypoints of a 50k-vertex mesh and ρ = 2h this is about a
+//! quarter of the fronts' work (BENCHMARKS.md, section 2, *Landmark fronts*), for a mean
+//! difference from the full matrix of about 1 %.
 
 use std::sync::{Mutex, PoisonError};
 
@@ -110,30 +133,53 @@ pub fn distance_matrix(
     sources: &[VertexId],
 ) -> Result<DistanceMatrix, GeodesicError> {
     let k = sources.len();
-    // one workspace per thread of the current pool (a caller outside any pool runs on the
-    // global pool's threads; index 0 is only a fallback, and the lock keeps it correct)
-    let workspaces: Vec<Mutex<Workspace>> = (0..rayon::current_num_threads().min(k.max(1)))
-        .map(|_| Mutex::new(Workspace::new()))
-        .collect();
+    let workspaces = thread_workspaces(k);
     let rows: Vec<Vec<f64>> = sources
         .par_iter()
         .map(|&s| {
-            let slot = rayon::current_thread_index().unwrap_or(0) % workspaces.len();
-            let mut ws = workspaces[slot]
-                .lock()
-                .unwrap_or_else(PoisonError::into_inner);
-            solver.solve_until(s, sources, &mut ws)?;
-            Ok(sources.iter().map(|&t| ws.distance(t)).collect())
+            with_workspace(&workspaces, |ws| {
+                solver.solve_until(s, sources, ws)?;
+                Ok(sources.iter().map(|&t| ws.distance(t)).collect())
+            })
         })
         .collect::<Result<_, GeodesicError>>()?;
+    Ok(assemble(solver, k, |i, j| (rows[i][j], rows[j][i])))
+}
 
+/// One workspace per thread of the current pool (a caller outside any pool runs on the global
+/// pool's threads; index 0 is only a fallback, and the lock keeps it correct).
+fn thread_workspaces(fronts: usize) -> Vec<Mutex<Workspace>> {
+    (0..rayon::current_num_threads().min(fronts.max(1)))
+        .map(|_| Mutex::new(Workspace::new()))
+        .collect()
+}
+
+/// Runs `f` with the calling thread's workspace.
+fn with_workspace<T>(
+    workspaces: &[Mutex<Workspace>],
+    f: impl FnOnce(&mut Workspace) -> Result<T, GeodesicError>,
+) -> Result<T, GeodesicError> {
+    let slot = rayon::current_thread_index().unwrap_or(0) % workspaces.len();
+    let mut ws = workspaces[slot]
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner);
+    f(&mut ws)
+}
+
+/// Symmetrises `pair(i, j) = (r_ij, r_ji)` for i < j into a [`DistanceMatrix`] and fills the
+/// disconnected pairs (steps 2 and 3 of the module docs).
+fn assemble(
+    solver: &GeodesicSolver,
+    k: usize,
+    pair: impl Fn(usize, usize) -> (f64, f64),
+) -> DistanceMatrix {
     let mut data = vec![0.0; k * k];
     let mut disconnected = vec![false; k * k];
     let mut largest = 0.0f64;
     let mut pairs = 0;
     for i in 0..k {
         for j in i + 1..k {
-            let (a, b) = (rows[i][j], rows[j][i]);
+            let (a, b) = pair(i, j);
             let d = if a.is_finite() && b.is_finite() {
                 0.5 * (a + b)
             } else if a.is_finite() || b.is_finite() {
@@ -166,11 +212,172 @@ pub fn distance_matrix(
             }
         }
     }
-    Ok(DistanceMatrix {
+    DistanceMatrix {
         n: k,
         data,
         disconnected,
         disconnected_pairs: pairs,
         fill,
-    })
+    }
+}
+
+/// What [`landmark_distance_matrix`] computed, beside the matrix.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LandmarkStats {
+    /// Full fronts run: the landmarks, plus the sources no landmark reaches (on a piece without
+    /// a landmark).
+    pub full_fronts: usize,
+    /// Fronts stopped at [`LandmarkStats::radius`].
+    pub short_fronts: usize,
+    /// The covering radius h: the largest distance from a source to its nearest landmark (over
+    /// the sources some landmark reaches), in mesh units.
+    pub covering_radius: f64,
+    /// Where the short fronts stopped: `radius_factor · h`, in mesh units.
+    pub radius: f64,
+    /// Unordered pairs {i, j} whose distance is estimated through the landmarks (no front
+    /// measured it).
+    pub estimated_pairs: usize,
+}
+
+/// Keypoint distances from the full fronts of a few *landmark* sources and short fronts of the
+/// others (see *Landmark fronts* in the module documentation), in place of
+/// [`distance_matrix`]'s K full fronts.
+///
+/// `landmarks` are positions in `sources`, each at most once; `radius_factor` (> 0, finite)
+/// sets where the short fronts stop, in covering radii. With every source a landmark the result
+/// is [`distance_matrix`]'s. Errors: a source id out of range, a landmark index out of range or
+/// repeated. A `radius_factor` that is not a positive number is taken as +∞ (every front full).
+pub fn landmark_distance_matrix(
+    solver: &GeodesicSolver,
+    sources: &[VertexId],
+    landmarks: &[usize],
+    radius_factor: f64,
+) -> Result<(DistanceMatrix, LandmarkStats), GeodesicError> {
+    let k = sources.len();
+    // slot of each source among the landmarks
+    let mut slot = vec![usize::MAX; k];
+    for (l, &i) in landmarks.iter().enumerate() {
+        if i >= k || slot[i] != usize::MAX {
+            return Err(GeodesicError::BadLandmark {
+                landmark: i,
+                sources: k,
+            });
+        }
+        slot[i] = l;
+    }
+    let workspaces = thread_workspaces(k);
+    let full_row = |s: VertexId| {
+        with_workspace(&workspaces, |ws| {
+            solver.solve_until(s, sources, ws)?;
+            Ok(sources
+                .iter()
+                .map(|&t| ws.distance(t))
+                .collect::<Vec<f64>>())
+        })
+    };
+    // 1. the landmarks' full fronts; `through[j]` holds d(l, j) for every landmark l
+    let landmark_rows: Vec<Vec<f64>> = landmarks
+        .par_iter()
+        .map(|&i| full_row(sources[i]))
+        .collect::<Result<_, GeodesicError>>()?;
+    let nl = landmarks.len();
+    let through: Vec<Vec<f64>> = (0..k)
+        .map(|j| landmark_rows.iter().map(|row| row[j]).collect())
+        .collect();
+    let nearest: Vec<f64> = through
+        .iter()
+        .map(|d| d.iter().copied().fold(f64::INFINITY, f64::min))
+        .collect();
+    let covering_radius = nearest
+        .iter()
+        .copied()
+        .filter(|d| d.is_finite())
+        .fold(0.0, f64::max);
+    let radius = if radius_factor > 0.0 && radius_factor.is_finite() {
+        radius_factor * covering_radius
+    } else {
+        f64::INFINITY
+    };
+
+    // 2. the other sources: a front stopped at `radius`, or a full one where no landmark
+    //    reaches the source; `Short::complete` = the front covered the source's whole piece
+    struct Short {
+        row: Vec<f64>,
+        complete: bool,
+    }
+    let others: Vec<usize> = (0..k).filter(|&i| slot[i] == usize::MAX).collect();
+    let short: Vec<Short> = others
+        .par_iter()
+        .map(|&i| {
+            if nearest[i].is_finite() {
+                with_workspace(&workspaces, |ws| {
+                    let complete = solver.solve_within(sources[i], radius, ws)?;
+                    Ok(Short {
+                        row: sources.iter().map(|&t| ws.distance(t)).collect(),
+                        complete,
+                    })
+                })
+            } else {
+                Ok(Short {
+                    row: full_row(sources[i])?,
+                    complete: true,
+                })
+            }
+        })
+        .collect::<Result<_, GeodesicError>>()?;
+    let mut row_of = vec![usize::MAX; k];
+    for (r, &i) in others.iter().enumerate() {
+        row_of[i] = r;
+    }
+    let full_fronts = nl + others.iter().filter(|&&i| !nearest[i].is_finite()).count();
+
+    // 3. r_ij: measured when i is a landmark or j lies within i's short front (or i's front
+    //    covered its piece); otherwise unknown (`None`)
+    let measured = |i: usize, j: usize| -> Option<f64> {
+        if slot[i] != usize::MAX {
+            return Some(landmark_rows[slot[i]][j]);
+        }
+        let s = &short[row_of[i]];
+        let d = s.row[j];
+        (d.is_finite() || s.complete).then_some(d)
+    };
+    let estimated = std::sync::atomic::AtomicUsize::new(0);
+    let matrix = assemble(solver, k, |i, j| match (measured(i, j), measured(j, i)) {
+        (Some(a), Some(b)) => (a, b),
+        (Some(a), None) => (a, a),
+        (None, Some(b)) => (b, b),
+        (None, None) => {
+            estimated.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            let d = through_landmarks(&through[i], &through[j]);
+            (d, d)
+        }
+    });
+    let stats = LandmarkStats {
+        full_fronts,
+        short_fronts: k - full_fronts,
+        covering_radius,
+        radius,
+        estimated_pairs: estimated.into_inner(),
+    };
+    Ok((matrix, stats))
+}
+
+/// `min_l a_l + b_l`: the shortest path from i to j through one landmark, given both sources'
+/// distances to every landmark (+∞ if no landmark reaches both).
+fn through_landmarks(a: &[f64], b: &[f64]) -> f64 {
+    // four independent minima so the loop vectorises
+    let mut m = [f64::INFINITY; 4];
+    let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
+    let (ra, rb) = (ca.remainder(), cb.remainder());
+    for (x, y) in ca.zip(cb) {
+        for t in 0..4 {
+            let s = x[t] + y[t];
+            m[t] = if s < m[t] { s } else { m[t] };
+        }
+    }
+    let mut best = m[0].min(m[1]).min(m[2].min(m[3]));
+    for (x, y) in ra.iter().zip(rb) {
+        best = best.min(x + y);
+    }
+    best
 }
