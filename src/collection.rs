@@ -154,7 +154,7 @@ fn open_for_add(
     check_output_folder(dir)?;
     let mut writer = Writer::create_or_open(dir)?;
     let recorded = writer.profile().to_string();
-    let existing = match serde_json::from_str::<Profile>(&recorded) {
+    let existing: Option<Profile> = match serde_json::from_str::<Profile>(&recorded) {
         Ok(p) => Some(p),
         Err(_) if recorded.is_empty() && writer.is_empty() => None,
         Err(_) => {
@@ -165,7 +165,7 @@ fn open_for_add(
             )));
         }
     };
-    let profile = match existing {
+    let profile = match existing.clone() {
         Some(p) => {
             let file = matches!(p.describe.units, keycomp_describe::Units::File { .. });
             if let Some(u) = options.units
@@ -190,7 +190,14 @@ fn open_for_add(
             Profile::with(&detect, describe)
         }
     };
-    writer.ensure_profile(&profile.to_text()?)?;
+    // the recorded text where nothing changed: a profile written before a parameter existed
+    // reads with that parameter's old behaviour but would not print as it is recorded
+    let text = if existing.as_ref() == Some(&profile) {
+        recorded
+    } else {
+        profile.to_text()?
+    };
+    writer.ensure_profile(&text)?;
     Ok((writer, profile))
 }
 

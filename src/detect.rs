@@ -84,6 +84,33 @@ pub struct DetectArgs {
     /// obtuse corner, 180 = none) [default: 90].
     #[arg(long, value_name = "DEG")]
     pub split_angle: Option<f64>,
+    /// Landmark fronts: only this many keypoints (spread by farthest-point sampling) run a
+    /// full fast-marching front, the others a short one, and the pairs no front measured get
+    /// the shortest path through a landmark; 0 = a full front from every keypoint, as in the
+    /// paper. A deviation from the paper, made for speed (a third of the time of detection
+    /// on 50–60k vertices, repeatability within noise: BENCHMARKS.md section 2) [default:
+    /// 100].
+    #[arg(long, value_name = "L")]
+    pub landmarks: Option<usize>,
+    /// Where the non-landmarks' short fronts stop, in covering radii (the largest distance
+    /// from a keypoint to its nearest landmark) [default: 2].
+    #[arg(long, value_name = "F")]
+    pub landmark_radius: Option<f64>,
+    /// SMACOF's starts (the paper's method: 4 random ones) [default: 2].
+    #[arg(long, value_name = "N", value_parser = crate::output::at_least_one)]
+    pub smacof_starts: Option<usize>,
+    /// SMACOF's first start: `random`, or `classical` (Torgerson scaling of the distances; the
+    /// other starts stay random) [default: classical].
+    #[arg(long, value_name = "INIT", value_parser = parse_init)]
+    pub smacof_init: Option<bool>,
+}
+
+pub fn parse_init(s: &str) -> Result<bool, String> {
+    match s {
+        "classical" => Ok(true),
+        "random" => Ok(false),
+        _ => Err(format!("unknown SMACOF start '{s}' (classical or random)")),
+    }
 }
 
 fn parse_preset(s: &str) -> Result<Preset, String> {
@@ -119,6 +146,10 @@ impl DetectArgs {
             seed: self.seed,
             geodesic_vertices: self.geodesic_vertices,
             split_angle: self.split_angle,
+            landmarks: self.landmarks,
+            landmark_radius: self.landmark_radius,
+            smacof_starts: self.smacof_starts,
+            classical_start: self.smacof_init,
         }
     }
 

@@ -39,6 +39,14 @@ pub struct DetectOptions {
     pub geodesic_vertices: Option<usize>,
     /// Split obtuse corners of at least this angle, in degrees.
     pub split_angle: Option<f64>,
+    /// Keypoints running a full front (0 = all of them).
+    pub landmarks: Option<usize>,
+    /// Where the other keypoints' fronts stop, in covering radii.
+    pub landmark_radius: Option<f64>,
+    /// SMACOF's starts.
+    pub smacof_starts: Option<usize>,
+    /// Whether SMACOF's first start is the classical scaling.
+    pub classical_start: Option<bool>,
 }
 
 impl DetectOptions {
@@ -72,6 +80,12 @@ impl DetectOptions {
         if let Some(a) = self.split_angle {
             p.geodesic.min_split_angle_degrees = a;
         }
+        if let Some(l) = self.landmarks {
+            p.geodesic.landmarks = l;
+        }
+        if let Some(f) = self.landmark_radius {
+            p.geodesic.landmark_radius = f;
+        }
         let c = &mut p.components;
         if let Some(r) = self.r {
             c.cluster.r = r;
@@ -90,6 +104,12 @@ impl DetectOptions {
         }
         if let Some(seed) = self.seed {
             c.smacof.seed = seed;
+        }
+        if let Some(n) = self.smacof_starts {
+            c.smacof.starts = n;
+        }
+        if let Some(b) = self.classical_start {
+            c.smacof.classical_start = b;
         }
         p
     }

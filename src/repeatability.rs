@@ -97,6 +97,20 @@ pub struct Args {
     /// --split-angle`) [default: the detection default].
     #[arg(long, value_name = "DEG")]
     pub split_angle: Option<f64>,
+    /// Landmark fronts (as `keycomp detect --landmarks`) [default: the detection default].
+    #[arg(long, value_name = "L")]
+    pub landmarks: Option<usize>,
+    /// Short fronts' radius in covering radii (as `keycomp detect --landmark-radius`)
+    /// [default: the detection default].
+    #[arg(long, value_name = "F")]
+    pub landmark_radius: Option<f64>,
+    /// SMACOF's starts (as `keycomp detect --smacof-starts`) [default: the detection default].
+    #[arg(long, value_name = "N", value_parser = crate::output::at_least_one)]
+    pub smacof_starts: Option<usize>,
+    /// SMACOF's first start, random or classical (as `keycomp detect --smacof-init`)
+    /// [default: the detection default].
+    #[arg(long, value_name = "INIT", value_parser = crate::detect::parse_init)]
+    pub smacof_init: Option<bool>,
     /// Output folder.
     #[arg(long, default_value = "bench-out/repeatability", value_name = "DIR")]
     pub out: PathBuf,
@@ -219,9 +233,18 @@ impl Args {
             presets,
             harris,
             budget,
-            smacof: SmacofParams {
-                seed: self.smacof_seed,
-                ..SmacofParams::default()
+            smacof: {
+                let mut s = SmacofParams {
+                    seed: self.smacof_seed,
+                    ..SmacofParams::default()
+                };
+                if let Some(n) = self.smacof_starts {
+                    s.starts = n;
+                }
+                if let Some(b) = self.smacof_init {
+                    s.classical_start = b;
+                }
+                s
             },
             geodesic: {
                 let mut g = GeodesicOptions::default();
@@ -230,6 +253,12 @@ impl Args {
                 }
                 if let Some(a) = self.split_angle {
                     g.min_split_angle_degrees = a;
+                }
+                if let Some(l) = self.landmarks {
+                    g.landmarks = l;
+                }
+                if let Some(f) = self.landmark_radius {
+                    g.landmark_radius = f;
                 }
                 g
             },

@@ -201,6 +201,61 @@ fn index_commands_on_synthetic_shapes() {
     assert_eq!(o.status.code(), Some(2));
 }
 
+/// An index whose profile was recorded before the landmark fronts and SMACOF's classical start
+/// existed (its detection parameters lack those fields) keeps its own parameters: read back
+/// as full fronts and four random starts, `index add` without options accepts it and leaves
+/// its profile as recorded, and a query finds the indexed shape with score 1 (analysed as the
+/// shape was).
+#[test]
+fn an_index_recorded_before_new_parameters_keeps_its_own() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (index, shape, other) = index_and_two_shapes(dir.path());
+    let o = keycomp(&[
+        "index",
+        "add",
+        s(&shape),
+        "--index",
+        s(&index),
+        "--landmarks",
+        "0",
+        "--smacof-starts",
+        "4",
+        "--smacof-init",
+        "random",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let reader =
+        keycomp_index::IndexReader::<{ keycomp_describe::DIM }>::open(&index).expect("reader");
+    let mut profile: Value = serde_json::from_str(reader.profile()).expect("profile");
+    profile["detect"]["geodesic"]
+        .as_object_mut()
+        .expect("geodesic")
+        .retain(|k, _| k != "landmarks" && k != "landmark_radius");
+    profile["detect"]["components"]["smacof"]
+        .as_object_mut()
+        .expect("smacof")
+        .remove("classical_start");
+    let old_text = serde_json::to_string(&profile).expect("json");
+    let records: Vec<_> = reader.shapes().iter().map(|sh| sh.record.clone()).collect();
+    let old = dir.path().join("old");
+    let mut w = keycomp_index::IndexWriter::<{ keycomp_describe::DIM }>::create_or_open(&old)
+        .expect("writer");
+    w.ensure_profile(&old_text).expect("profile");
+    w.add_batch(records).expect("add");
+    drop(w);
+
+    let o = keycomp(&["index", "add", s(&other), "--index", s(&old), "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let reader =
+        keycomp_index::IndexReader::<{ keycomp_describe::DIM }>::open(&old).expect("reader");
+    assert_eq!(reader.profile(), old_text);
+    assert_eq!(reader.shapes().len(), 2);
+    let o = keycomp(&["query", s(&shape), "--index", s(&old), "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: Value = serde_json::from_slice(&o.stdout).expect("json");
+    assert!((v["results"][0]["score"].as_f64().expect("score") - 1.0).abs() < 1e-6);
+}
+
 /// In `dir`: the path of an index to create, a textured sphere and a torus (OFF files).
 fn index_and_two_shapes(dir: &Path) -> (PathBuf, PathBuf, PathBuf) {
     let shape = dir.join("textured.off");

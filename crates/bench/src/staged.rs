@@ -130,24 +130,35 @@ mod tests {
         let embedded = embed(&mesh, &harris, &smacof, &geodesic).unwrap();
         let extractor = Extractor::new(&mesh);
         let mut total = 0;
+        // N lowered to 10: the shape's 102 keypoints then form clusters under every preset
+        // (at N = 20–30 whether any cluster reaches N depends on the embedding's local minimum)
+        let components = |preset: Preset| {
+            let mut c = preset.component_params();
+            c.cluster.n_min = 10;
+            c
+        };
         for preset in Preset::ALL {
             let params = DetectParams {
                 harris,
-                components: preset.component_params(),
+                components: components(preset),
                 geodesic,
             };
             let det = detect(&mesh, &params).unwrap();
             assert_eq!(det.keypoints, embedded.keypoints);
             let expected: Vec<Vec<VertexId>> =
                 det.components.iter().map(|c| c.vertices.clone()).collect();
-            let p = preset.component_params();
+            let p = components(preset);
             let got = extractor
                 .components(&embedded, &p.cluster, p.sigma)
                 .unwrap();
             assert_eq!(got, expected, "{preset}");
+            assert!(
+                !got.is_empty(),
+                "{preset}: the test shape must give some components"
+            );
             total += got.len();
         }
-        assert!(total > 0, "the test shape must give some components");
+        assert!(total >= 3);
     }
 
     #[test]

@@ -15,8 +15,9 @@
 //!     [--runs 3] [--settings 20000@90,0@110,...] [--sphere 6] MESH...
 //! ```
 //!
-//! A setting is `N@ANGLE`: proxy of at most N vertices (0 = full mesh), obtuse corners split
-//! from ANGLE degrees. Threads: the global rayon pool (`RAYON_NUM_THREADS=2` for the
+//! A setting is `N@ANGLE[/L[:F]]`: proxy of at most N vertices (0 = full mesh), obtuse corners
+//! split from ANGLE degrees, and optionally landmark fronts: L landmarks, short fronts stopped
+//! at F covering radii (default 2). Threads: the global rayon pool (`RAYON_NUM_THREADS=2` for the
 //! two-thread figures).
 
 use std::time::Instant;
@@ -53,11 +54,24 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 fn parse_setting(s: &str) -> Res<GeodesicOptions> {
+    let (s, landmarks) = s.split_once('/').unwrap_or((s, "0"));
+    let (landmarks, radius) = landmarks.split_once(':').unwrap_or((landmarks, "2"));
     let (n, a) = s.split_once('@').unwrap_or((s, "90"));
     Ok(GeodesicOptions {
         proxy_vertices: n.parse()?,
         min_split_angle_degrees: a.parse()?,
+        landmarks: landmarks.parse()?,
+        landmark_radius: radius.parse()?,
     })
+}
+
+fn label(o: &GeodesicOptions) -> String {
+    let base = format!("{}@{}", o.proxy_vertices, o.min_split_angle_degrees);
+    if o.landmarks > 0 {
+        format!("{base}/{}:{}", o.landmarks, o.landmark_radius)
+    } else {
+        base
+    }
 }
 
 fn run(
@@ -108,9 +122,8 @@ fn run(
         let (mean, max, abs) = compare(&results[i].0, &results[0].0, k);
         let ms = median(times[i].0.clone());
         let mut line = format!(
-            "| {}@{} | {} | {:.3} | {:.2} | {:.3} | {:.0} | {:.0} | {:.2} |",
-            o.proxy_vertices,
-            o.min_split_angle_degrees,
+            "| {} | {} | {:.3} | {:.2} | {:.3} | {:.0} | {:.0} | {:.2} |",
+            label(o),
             results[i].1,
             100.0 * mean,
             100.0 * max,
