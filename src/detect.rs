@@ -73,6 +73,15 @@ pub struct DetectArgs {
     /// Seed of SMACOF's random starts [default: 0].
     #[arg(long, value_name = "S")]
     pub seed: Option<u64>,
+    #[command(flatten)]
+    pub speed: SpeedArgs,
+}
+
+/// How the geodesic distances and the embedding are computed (deviations from the paper made
+/// for speed, and their off switches): shared by every command that detects key-components
+/// and by `bench repeatability`.
+#[derive(Debug, Clone, Default, clap::Args)]
+pub struct SpeedArgs {
     /// Run the fast-marching fronts on a proxy of at most N vertices (the mesh simplified by
     /// half-edge collapse, keypoints kept as vertices) when the mesh has more; 0 = the full
     /// mesh, as in the paper. The default proxy is a deviation from the paper, made for speed
@@ -87,9 +96,9 @@ pub struct DetectArgs {
     /// Landmark fronts: only this many keypoints (spread by farthest-point sampling) run a
     /// full fast-marching front, the others a short one, and the pairs no front measured get
     /// the shortest path through a landmark; 0 = a full front from every keypoint, as in the
-    /// paper. A deviation from the paper, made for speed (a third of the time of detection
-    /// on 50–60k vertices, repeatability within noise: BENCHMARKS.md section 2) [default:
-    /// 100].
+    /// paper. A deviation from the paper, made for speed (with the classical start below,
+    /// 0.37–0.41× the time of detection on 50–60k vertices, repeatability within noise:
+    /// BENCHMARKS.md section 2) [default: 100].
     #[arg(long, value_name = "L")]
     pub landmarks: Option<usize>,
     /// Where the non-landmarks' short fronts stop, in covering radii (the largest distance
@@ -105,7 +114,22 @@ pub struct DetectArgs {
     pub smacof_init: Option<bool>,
 }
 
-pub fn parse_init(s: &str) -> Result<bool, String> {
+impl SpeedArgs {
+    /// These options as [`DetectOptions`] (every other option unset).
+    pub fn options(&self) -> DetectOptions {
+        DetectOptions {
+            geodesic_vertices: self.geodesic_vertices,
+            split_angle: self.split_angle,
+            landmarks: self.landmarks,
+            landmark_radius: self.landmark_radius,
+            smacof_starts: self.smacof_starts,
+            classical_start: self.smacof_init,
+            ..DetectOptions::default()
+        }
+    }
+}
+
+fn parse_init(s: &str) -> Result<bool, String> {
     match s {
         "classical" => Ok(true),
         "random" => Ok(false),
@@ -144,12 +168,7 @@ impl DetectArgs {
             n_reference: self.n_reference,
             sigma: self.sigma,
             seed: self.seed,
-            geodesic_vertices: self.geodesic_vertices,
-            split_angle: self.split_angle,
-            landmarks: self.landmarks,
-            landmark_radius: self.landmark_radius,
-            smacof_starts: self.smacof_starts,
-            classical_start: self.smacof_init,
+            ..self.speed.options()
         }
     }
 

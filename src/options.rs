@@ -1,7 +1,7 @@
 //! Detection options as a user gives them (a preset, then single values on top), turned into
 //! [`DetectParams`]: the one place the command line and other front ends share.
 
-use keycomp_components::{DetectParams, GeodesicOptions, Preset};
+use keycomp_components::{DetectParams, GeodesicOptions, Preset, SmacofParams};
 use keycomp_harris::{HarrisParams, Neighborhood, Selection};
 
 /// N of Algorithm 1 scaled for small shapes in the retrieval commands (`index add`, `query`,
@@ -72,20 +72,9 @@ impl DetectOptions {
         let mut p = DetectParams {
             harris: self.harris(HarrisParams::default()),
             components: self.preset.component_params(),
-            geodesic: GeodesicOptions::default(),
+            geodesic: self.geodesic(),
         };
-        if let Some(n) = self.geodesic_vertices {
-            p.geodesic.proxy_vertices = n;
-        }
-        if let Some(a) = self.split_angle {
-            p.geodesic.min_split_angle_degrees = a;
-        }
-        if let Some(l) = self.landmarks {
-            p.geodesic.landmarks = l;
-        }
-        if let Some(f) = self.landmark_radius {
-            p.geodesic.landmark_radius = f;
-        }
+        p.components.smacof = self.smacof(p.components.smacof);
         let c = &mut p.components;
         if let Some(r) = self.r {
             c.cluster.r = r;
@@ -102,16 +91,39 @@ impl DetectOptions {
         if let Some(s) = self.sigma {
             c.sigma = s;
         }
+        p
+    }
+
+    /// The geodesic options: the default with the proxy, corner and landmark options on top.
+    pub fn geodesic(&self) -> GeodesicOptions {
+        let mut g = GeodesicOptions::default();
+        if let Some(n) = self.geodesic_vertices {
+            g.proxy_vertices = n;
+        }
+        if let Some(a) = self.split_angle {
+            g.min_split_angle_degrees = a;
+        }
+        if let Some(l) = self.landmarks {
+            g.landmarks = l;
+        }
+        if let Some(f) = self.landmark_radius {
+            g.landmark_radius = f;
+        }
+        g
+    }
+
+    /// SMACOF's parameters: `base` with the seed and start options on top.
+    pub fn smacof(&self, mut base: SmacofParams) -> SmacofParams {
         if let Some(seed) = self.seed {
-            c.smacof.seed = seed;
+            base.seed = seed;
         }
         if let Some(n) = self.smacof_starts {
-            c.smacof.starts = n;
+            base.starts = n;
         }
         if let Some(b) = self.classical_start {
-            c.smacof.classical_start = b;
+            base.classical_start = b;
         }
-        p
+        base
     }
 
     /// The parameters of the retrieval commands: [`DetectOptions::params`] with N scaled for

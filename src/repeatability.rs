@@ -8,13 +8,14 @@ use std::time::Duration;
 
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use keycomp::options::DetectOptions;
 use keycomp_bench::Kind;
 use keycomp_bench::cache::EmbeddingCache;
 use keycomp_bench::experiment::{
     Budget, Config, ISOMETRY, PresetSpec, Progress, Report, RunStats, discover, run,
 };
 use keycomp_bench::svg::{Curve, repeatability_svg};
-use keycomp_components::{GeodesicOptions, Preset, SmacofParams};
+use keycomp_components::{Preset, SmacofParams};
 use keycomp_harris::HarrisParams;
 use keycomp_mser::Method;
 use keycomp_mser::MserParams;
@@ -89,28 +90,8 @@ pub struct Args {
     /// Seed of SMACOF's random starts.
     #[arg(long, default_value_t = 0, value_name = "S")]
     pub smacof_seed: u64,
-    /// Fast-marching fronts on a proxy of at most N vertices; 0 = the full mesh (as `keycomp
-    /// detect --geodesic-vertices`) [default: the detection default].
-    #[arg(long, value_name = "N")]
-    pub geodesic_vertices: Option<usize>,
-    /// Split obtuse corners of at least this angle in fast marching (as `keycomp detect
-    /// --split-angle`) [default: the detection default].
-    #[arg(long, value_name = "DEG")]
-    pub split_angle: Option<f64>,
-    /// Landmark fronts (as `keycomp detect --landmarks`) [default: the detection default].
-    #[arg(long, value_name = "L")]
-    pub landmarks: Option<usize>,
-    /// Short fronts' radius in covering radii (as `keycomp detect --landmark-radius`)
-    /// [default: the detection default].
-    #[arg(long, value_name = "F")]
-    pub landmark_radius: Option<f64>,
-    /// SMACOF's starts (as `keycomp detect --smacof-starts`) [default: the detection default].
-    #[arg(long, value_name = "N", value_parser = crate::output::at_least_one)]
-    pub smacof_starts: Option<usize>,
-    /// SMACOF's first start, random or classical (as `keycomp detect --smacof-init`)
-    /// [default: the detection default].
-    #[arg(long, value_name = "INIT", value_parser = crate::detect::parse_init)]
-    pub smacof_init: Option<bool>,
+    #[command(flatten)]
+    pub speed: crate::detect::SpeedArgs,
     /// Output folder.
     #[arg(long, default_value = "bench-out/repeatability", value_name = "DIR")]
     pub out: PathBuf,
@@ -233,35 +214,12 @@ impl Args {
             presets,
             harris,
             budget,
-            smacof: {
-                let mut s = SmacofParams {
-                    seed: self.smacof_seed,
-                    ..SmacofParams::default()
-                };
-                if let Some(n) = self.smacof_starts {
-                    s.starts = n;
-                }
-                if let Some(b) = self.smacof_init {
-                    s.classical_start = b;
-                }
-                s
-            },
-            geodesic: {
-                let mut g = GeodesicOptions::default();
-                if let Some(n) = self.geodesic_vertices {
-                    g.proxy_vertices = n;
-                }
-                if let Some(a) = self.split_angle {
-                    g.min_split_angle_degrees = a;
-                }
-                if let Some(l) = self.landmarks {
-                    g.landmarks = l;
-                }
-                if let Some(f) = self.landmark_radius {
-                    g.landmark_radius = f;
-                }
-                g
-            },
+            smacof: DetectOptions {
+                seed: Some(self.smacof_seed),
+                ..self.speed.options()
+            }
+            .smacof(SmacofParams::default()),
+            geodesic: self.speed.options().geodesic(),
             mser: MserParams::default(),
             kinds,
             isometry,
