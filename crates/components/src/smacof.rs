@@ -34,11 +34,10 @@
 //! The paper does not say how SMACOF is started. Random starts land in different local minima
 //! of the stress, so the best of several is kept, each costing 100–300 transforms on
 //! real keypoint matrices. Classical scaling (Torgerson; the two leading eigenvectors of the
-//! double-centred squared distances) is a start close to a good minimum: on the shapes of
-//! the repeatability benchmark it ends at a stress at or below the best of four random starts
-//! on `nefertiti.obj`, KIDS `0001.null.0` and `horse.ply` (within 0.01 % on `igea.ply`, 5 %
-//! above on `cat0.off`), after 41–135 transforms. The default is two starts, the classical one
-//! and one random (they run side by side on two threads), instead of four random ones:
+//! double-centred squared distances) is a start close to a good minimum (on a sphere's
+//! great-circle distances it ends within 5 % of the best of four random starts' stress, a
+//! test below). The default is two starts, the classical one and one random (they run side by
+//! side on two threads), instead of four random ones:
 //! measured by the repeatability benchmark with the landmark fronts of
 //! `keycomp_geodesic::landmark_distance_matrix` (BENCHMARKS.md section 2, *Landmark fronts
 //! and a classical start*), KC-1's average overlap at strength ≤ 5 goes from 0.844 to 0.848,
@@ -423,21 +422,28 @@ const CLASSICAL_STEPS: usize = 100;
 /// or a non-Euclidean matrix whose most negative eigenvalue dominates), so that the caller
 /// falls back to a random start.
 fn classical(delta: &[f64], k: usize) -> Option<(Vec<f64>, Vec<f64>)> {
-    // B_ij = −½ (δ²_ij − r_i − r_j + g), r the row means of Δ², g their mean
-    let sq: Vec<f64> = delta.iter().map(|d| d * d).collect();
-    let r: Vec<f64> = sq
+    // B_ij = −½ (δ²_ij − r_i − r_j + g), r the row means of Δ², g their mean; formed in
+    // place over Δ²
+    let mut b: Vec<f64> = delta.iter().map(|d| d * d).collect();
+    let r: Vec<f64> = b
         .chunks_exact(k)
         .map(|row| row.iter().sum::<f64>() / k as f64)
         .collect();
     let g = r.iter().sum::<f64>() / k as f64;
-    let b: Vec<f64> = sq
-        .iter()
-        .enumerate()
-        .map(|(n, &v)| -0.5 * (v - r[n / k] - r[n % k] + g))
-        .collect();
-    let product = |v: &[f64], out: &mut [f64]| {
-        for (o, row) in out.iter_mut().zip(b.chunks_exact(k)) {
-            *o = row.iter().zip(v).map(|(a, x)| a * x).sum();
+    for (row, &ri) in b.chunks_exact_mut(k).zip(&r) {
+        for (x, &rj) in row.iter_mut().zip(&r) {
+            *x = -0.5 * (*x - ri - rj + g);
+        }
+    }
+    // Bu and Bv in one pass over B (each row read once)
+    let products = |u: &[f64], v: &[f64], bu: &mut [f64], bv: &mut [f64]| {
+        for ((row, ou), ov) in b.chunks_exact(k).zip(bu.iter_mut()).zip(bv.iter_mut()) {
+            let (mut su, mut sv) = (0.0, 0.0);
+            for ((a, x), y) in row.iter().zip(u).zip(v) {
+                su += a * x;
+                sv += a * y;
+            }
+            (*ou, *ov) = (su, sv);
         }
     };
     // a fixed, non-symmetric start: not orthogonal to the leading pair for any real shape
@@ -450,8 +456,7 @@ fn classical(delta: &[f64], k: usize) -> Option<(Vec<f64>, Vec<f64>)> {
     let (mut bu, mut bv) = (vec![0.0; k], vec![0.0; k]);
     let dot = |a: &[f64], c: &[f64]| a.iter().zip(c).map(|(x, y)| x * y).sum::<f64>();
     for _ in 0..CLASSICAL_STEPS {
-        product(&u, &mut bu);
-        product(&v, &mut bv);
+        products(&u, &v, &mut bu, &mut bv);
         // Gram–Schmidt: u ← Bu/|Bu|, v ← Bv ⟂ u, normalised
         let nu = dot(&bu, &bu).sqrt();
         if nu.is_nan() || nu <= 0.0 {
@@ -473,8 +478,7 @@ fn classical(delta: &[f64], k: usize) -> Option<(Vec<f64>, Vec<f64>)> {
         }
     }
     // Rayleigh quotients of the converged pair
-    product(&u, &mut bu);
-    product(&v, &mut bv);
+    products(&u, &v, &mut bu, &mut bv);
     let (eu, ev) = (dot(&u, &bu), dot(&v, &bv));
     if !(eu > 0.0 && ev > 0.0) {
         return None;
