@@ -52,11 +52,11 @@
 //! front measured gets the shortest path through one landmark
 //! (`keycomp_geodesic::landmark_distance_matrix`). Shapes with at most 100 keypoints (meshes
 //! under about 10,000 vertices) are unaffected. The matrix of a 50–60k-vertex mesh then
-//! differs from the full one by about 1 % on average, and together with SMACOF's classical
+//! differs from the full one by 0.75–1.3 % on average, and together with SMACOF's classical
 //! start (see [`mod@crate::smacof`]) the repeatability benchmark's KC-1 average overlap at
 //! strength ≤ 5 goes from 0.844 to 0.848 with no row losing more than 0.015, while
-//! `keycomp detect` of `nefertiti.obj` takes a third of the time (BENCHMARKS.md section 2,
-//! *Landmark fronts and a classical start*). `--landmarks 0 --smacof-starts 4
+//! `keycomp detect` takes 0.41× (`nefertiti.obj`) and 0.37× (KIDS `0001.null.0`) the wall
+//! time (BENCHMARKS.md section 2, *Landmark fronts and a classical start*). `--landmarks 0 --smacof-starts 4
 //! --smacof-init random --geodesic-vertices 0` is the paper's method.
 
 use std::time::Instant;
