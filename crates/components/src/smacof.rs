@@ -274,8 +274,15 @@ fn run_start(
     }
     let mut prev: Option<f64> = None;
     let mut iterations = 0;
+    let arch = pulp::Arch::new();
     let stress = loop {
-        let stress = guttman(delta, k, &mut w);
+        // compiled for the widest vector unit the CPU has: the same operations in the same
+        // order, so the same result bit for bit, only more lanes at once
+        let stress = arch.dispatch(Guttman {
+            delta,
+            k,
+            w: &mut w,
+        });
         on_stress(stress);
         if stress == 0.0 || iterations == params.max_iter {
             break stress;
@@ -294,6 +301,25 @@ fn run_start(
         points: w.x.iter().zip(&w.y).map(|(&x, &y)| [x, y]).collect(),
         stress,
         iterations,
+    }
+}
+
+/// [`guttman`] as a `pulp` operation: `with_simd` is instantiated inside a function compiled for
+/// each instruction set (AVX-512, AVX2, baseline), and inlining `guttman` into it (both are
+/// `inline(always)`) compiles the transform's loops for that set. (A closure would not do: one
+/// that is not inlined keeps the baseline set.)
+struct Guttman<'a> {
+    delta: &'a [f64],
+    k: usize,
+    w: &'a mut Work,
+}
+
+impl pulp::WithSimd for Guttman<'_> {
+    type Output = f64;
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) -> f64 {
+        guttman(self.delta, self.k, self.w)
     }
 }
 
@@ -320,7 +346,9 @@ fn nonzero_or_zero(q: f64, d: f64) -> f64 {
 /// Per row `i`, a first element-wise loop over `j > i` (which the compiler vectorises: no
 /// cross-iteration sums) computes `b_ij` and `(d_ij − δ_ij)²` into scratch rows and adds row
 /// `i`'s contributions to rows `j`; a second loop sums the scratch rows over `LANES`
-/// independent accumulators.
+/// independent accumulators. Inlined into its caller's `pulp` dispatch, which compiles it for
+/// AVX2 and AVX-512 as well and picks the widest the CPU has at run time.
+#[inline(always)]
 fn guttman(delta: &[f64], k: usize, w: &mut Work) -> f64 {
     let Work {
         x,
@@ -409,6 +437,53 @@ fn guttman(delta: &[f64], k: usize, w: &mut Work) -> f64 {
     stress
 }
 
+/// `bu = B·u` and `bv = B·v` for the K×K matrix `b`, in one pass over its rows, as a `pulp`
+/// operation (see [`Guttman`]).
+struct Products<'a> {
+    b: &'a [f64],
+    k: usize,
+    u: &'a [f64],
+    v: &'a [f64],
+    bu: &'a mut [f64],
+    bv: &'a mut [f64],
+}
+
+impl pulp::WithSimd for Products<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) {
+        let full = self.k / LANES * LANES;
+        for ((row, ou), ov) in self
+            .b
+            .chunks_exact(self.k)
+            .zip(self.bu.iter_mut())
+            .zip(self.bv.iter_mut())
+        {
+            let (mut su, mut sv) = ([0.0; LANES], [0.0; LANES]);
+            for ((a, x), y) in row[..full]
+                .chunks_exact(LANES)
+                .zip(self.u[..full].chunks_exact(LANES))
+                .zip(self.v[..full].chunks_exact(LANES))
+            {
+                for l in 0..LANES {
+                    su[l] += a[l] * x[l];
+                    sv[l] += a[l] * y[l];
+                }
+            }
+            let (mut tu, mut tv) = (
+                (su[0] + su[1]) + (su[2] + su[3]),
+                (sv[0] + sv[1]) + (sv[2] + sv[3]),
+            );
+            for ((a, x), y) in row[full..].iter().zip(&self.u[full..]).zip(&self.v[full..]) {
+                tu += a * x;
+                tv += a * y;
+            }
+            (*ou, *ov) = (tu, tv);
+        }
+    }
+}
+
 /// Most subspace-iteration steps of [`classical`] (each two K×K products).
 const CLASSICAL_STEPS: usize = 100;
 
@@ -435,16 +510,18 @@ fn classical(delta: &[f64], k: usize) -> Option<(Vec<f64>, Vec<f64>)> {
             *x = -0.5 * (*x - ri - rj + g);
         }
     }
-    // Bu and Bv in one pass over B (each row read once)
+    // Bu and Bv in one pass over B (each row read once), over `LANES` independent sums so the
+    // loop vectorises, compiled for the widest vector unit the CPU has
+    let arch = pulp::Arch::new();
     let products = |u: &[f64], v: &[f64], bu: &mut [f64], bv: &mut [f64]| {
-        for ((row, ou), ov) in b.chunks_exact(k).zip(bu.iter_mut()).zip(bv.iter_mut()) {
-            let (mut su, mut sv) = (0.0, 0.0);
-            for ((a, x), y) in row.iter().zip(u).zip(v) {
-                su += a * x;
-                sv += a * y;
-            }
-            (*ou, *ov) = (su, sv);
-        }
+        arch.dispatch(Products {
+            b: &b,
+            k,
+            u,
+            v,
+            bu,
+            bv,
+        })
     };
     // a fixed, non-symmetric start: not orthogonal to the leading pair for any real shape
     let mut u: Vec<f64> = (0..k)
