@@ -43,6 +43,8 @@ pub struct DetectOptions {
     pub landmarks: Option<usize>,
     /// Where the other keypoints' fronts stop, in covering radii.
     pub landmark_radius: Option<f64>,
+    /// Vertices per cell of the proxy's parallel simplification (0 = one cell).
+    pub proxy_cell_vertices: Option<usize>,
     /// SMACOF's starts.
     pub smacof_starts: Option<usize>,
     /// Whether SMACOF's first start is the classical scaling.
@@ -108,6 +110,9 @@ impl DetectOptions {
         }
         if let Some(f) = self.landmark_radius {
             g.landmark_radius = f;
+        }
+        if let Some(c) = self.proxy_cell_vertices {
+            g.proxy_cell_vertices = c;
         }
         g
     }

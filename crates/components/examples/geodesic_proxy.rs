@@ -12,12 +12,13 @@
 //!
 //! ```text
 //! cargo run --release -p keycomp-components --example geodesic_proxy -- \
-//!     [--runs 3] [--settings 20000@90,0@110,...] [--sphere 6] MESH...
+//!     [--runs 3] [--settings 20000@90,0@110,10000@90/100:2#12500,...] [--sphere 6] MESH...
 //! ```
 //!
 //! A setting is `N@ANGLE[/L[:F]]`: proxy of at most N vertices (0 = full mesh), obtuse corners
 //! split from ANGLE degrees, and optionally landmark fronts: L landmarks, short fronts stopped
-//! at F covering radii (default 2). Threads: the global rayon pool (`RAYON_NUM_THREADS=2` for the
+//! at F covering radii (default 2); a suffix `#C` simplifies in cells of at least C vertices
+//! (`GeodesicOptions::proxy_cell_vertices`; none: one cell). Threads: the global rayon pool (`RAYON_NUM_THREADS=2` for the
 //! two-thread figures).
 
 use std::time::Instant;
@@ -54,6 +55,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 fn parse_setting(s: &str) -> Res<GeodesicOptions> {
+    let (s, cells) = s.split_once('#').unwrap_or((s, "0"));
     let (s, landmarks) = s.split_once('/').unwrap_or((s, "0"));
     let (landmarks, radius) = landmarks.split_once(':').unwrap_or((landmarks, "2"));
     let (n, a) = s.split_once('@').unwrap_or((s, "90"));
@@ -62,13 +64,19 @@ fn parse_setting(s: &str) -> Res<GeodesicOptions> {
         min_split_angle_degrees: a.parse()?,
         landmarks: landmarks.parse()?,
         landmark_radius: radius.parse()?,
+        proxy_cell_vertices: cells.parse()?,
     })
 }
 
 fn label(o: &GeodesicOptions) -> String {
     let base = format!("{}@{}", o.proxy_vertices, o.min_split_angle_degrees);
-    if o.landmarks > 0 {
+    let base = if o.landmarks > 0 {
         format!("{base}/{}:{}", o.landmarks, o.landmark_radius)
+    } else {
+        base
+    };
+    if o.proxy_cell_vertices > 0 {
+        format!("{base}#{}", o.proxy_cell_vertices)
     } else {
         base
     }

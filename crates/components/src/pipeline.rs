@@ -29,7 +29,9 @@
 //! simplified proxy of at most 20,000 vertices ([`GeodesicOptions::DEFAULT_PROXY_VERTICES`]),
 //! for speed: a front costs O(|V| log |V|) and there are K ≈ |V|/100 of them, so a proxy of N
 //! vertices divides the dominant term by about |V|/N, for the price of one simplification
-//! (O(|V| log |V|), one thread, about 0.1 s for 60k vertices). The proxy keeps the survivors'
+//! (O(|V| log |V|), about 0.1 s for 60k vertices on one thread; by default split into spatial
+//! cells of at least 10,000 vertices simplified in parallel, then the seams,
+//! [`GeodesicOptions::proxy_cell_vertices`]). The proxy keeps the survivors'
 //! exact positions and the surface's topology (link condition), so its distances differ from
 //! the mesh's by the discretisation error of fast marching on longer edges plus the shortcut of
 //! flattened detail. Measured (2026-11-22, `BENCHMARKS.md` section 2, example
@@ -129,6 +131,17 @@ pub struct GeodesicOptions {
     /// [`GeodesicOptions::landmarks`] > 0.
     #[serde(default = "default_landmark_radius")]
     pub landmark_radius: f64,
+    /// The proxy's simplification runs in parallel in 2^d spatial cells, d the largest that
+    /// leaves at least this many referenced vertices per cell (at most
+    /// [`GeodesicOptions::MAX_PROXY_CELLS`] cells), then once more over the whole to close
+    /// the seams (`keycomp_mesh::simplify::simplify_in_cells`); 0 or a mesh of fewer than
+    /// twice this many vertices: one cell, a single decimation of the whole mesh. The cells
+    /// are a function of the mesh, never of the number of threads. Otherwise at least
+    /// [`GeodesicOptions::MIN_PROXY_CELL_VERTICES`]. Default
+    /// [`GeodesicOptions::DEFAULT_PROXY_CELL_VERTICES`]; a recorded parameter set that lacks
+    /// the field (written before it existed) reads as 0, its behaviour then.
+    #[serde(default)]
+    pub proxy_cell_vertices: usize,
 }
 
 fn default_landmark_radius() -> f64 {
@@ -148,6 +161,12 @@ impl GeodesicOptions {
     pub const DEFAULT_LANDMARKS: usize = 100;
     /// The default [`GeodesicOptions::landmark_radius`].
     pub const DEFAULT_LANDMARK_RADIUS: f64 = 2.0;
+    /// The default [`GeodesicOptions::proxy_cell_vertices`].
+    pub const DEFAULT_PROXY_CELL_VERTICES: usize = 10_000;
+    /// The smallest non-zero [`GeodesicOptions::proxy_cell_vertices`].
+    pub const MIN_PROXY_CELL_VERTICES: usize = 1_000;
+    /// The most cells the proxy's simplification is split into.
+    pub const MAX_PROXY_CELLS: usize = 64;
 
     /// The options of the paper: full mesh, every obtuse corner split, a full front from every
     /// keypoint.
@@ -157,7 +176,22 @@ impl GeodesicOptions {
             min_split_angle_degrees: GeodesicParams::default().min_split_angle_degrees,
             landmarks: 0,
             landmark_radius: Self::DEFAULT_LANDMARK_RADIUS,
+            proxy_cell_vertices: 0,
         }
+    }
+
+    /// The number of cells the proxy's simplification of a mesh of `referenced` vertices is
+    /// split into (see [`GeodesicOptions::proxy_cell_vertices`]).
+    pub fn proxy_cells(&self, referenced: usize) -> usize {
+        if self.proxy_cell_vertices == 0 {
+            return 1;
+        }
+        let mut cells = 1;
+        while cells < Self::MAX_PROXY_CELLS && referenced / (2 * cells) >= self.proxy_cell_vertices
+        {
+            cells *= 2;
+        }
+        cells
     }
 
     /// Checks that `proxy_vertices` is 0 or at least [`GeodesicOptions::MIN_PROXY_VERTICES`]
@@ -168,6 +202,14 @@ impl GeodesicOptions {
                 "geodesic.proxy_vertices",
                 self.proxy_vertices,
                 "must be 0 (full mesh) or at least 100",
+            ));
+        }
+        if self.proxy_cell_vertices != 0 && self.proxy_cell_vertices < Self::MIN_PROXY_CELL_VERTICES
+        {
+            return Err(ComponentsError::param(
+                "geodesic.proxy_cell_vertices",
+                self.proxy_cell_vertices,
+                "must be 0 (one cell) or at least 1000",
             ));
         }
         if !(self.landmark_radius.is_finite() && self.landmark_radius > 0.0) {
@@ -200,6 +242,7 @@ impl Default for GeodesicOptions {
         GeodesicOptions {
             proxy_vertices: Self::DEFAULT_PROXY_VERTICES,
             landmarks: Self::DEFAULT_LANDMARKS,
+            proxy_cell_vertices: Self::DEFAULT_PROXY_CELL_VERTICES,
             ..GeodesicOptions::full_mesh()
         }
     }
@@ -398,7 +441,12 @@ pub fn keypoint_distances(
         .count();
     if options.proxy_vertices > 0 && referenced > options.proxy_vertices {
         let t = Instant::now();
-        let proxy = simplify::simplify(mesh, options.proxy_vertices, keypoints);
+        let proxy = simplify::simplify_in_cells(
+            mesh,
+            options.proxy_vertices,
+            keypoints,
+            options.proxy_cells(referenced),
+        );
         let sources: Option<Vec<VertexId>> =
             keypoints.iter().map(|&k| proxy.proxy_vertex(k)).collect();
         let t_simplify = ms(t);

@@ -171,19 +171,26 @@ fn proxy_distances_stay_close_to_the_full_mesh_and_to_great_circles() {
     assert_eq!((n_full, t_full), (mesh.num_vertices(), 0.0));
     let (err_full, _) = relative_difference(d_full.as_slice(), &exact, k);
     // bounds: the issue's 1 % for the method at 20k vertices (the full mesh gives 0.49 %); a
-    // proxy of a quarter of the vertices measured 1.07 %
-    for (proxy, bound) in [(20_000, 0.01), (10_000, 0.015)] {
+    // proxy of a quarter of the vertices measured 1.07 %, and the same in four cells
+    // (simplified in parallel) 1.07 % as well
+    for (proxy, cells, count, bound) in [
+        (20_000, 0, 1, 0.01),
+        (10_000, 0, 1, 0.015),
+        (10_000, 10_000, 4, 0.015),
+    ] {
         let options = GeodesicOptions {
             proxy_vertices: proxy,
+            proxy_cell_vertices: cells,
             ..full
         };
+        assert_eq!(options.proxy_cells(mesh.num_vertices()), count);
         let (d, n, _) = keypoint_distances(&mesh, &topo, &keypoints, &options).unwrap();
         assert_eq!(n, proxy);
         let (vs_full, vs_full_max) = relative_difference(d.as_slice(), d_full.as_slice(), k);
         let (err, err_max) = relative_difference(d.as_slice(), &exact, k);
         println!(
-            "proxy {proxy}: vs full mesh mean {:.3} % (max {:.2} %); vs great circles {:.3} % \
-             (max {:.2} %), full mesh {:.3} %",
+            "proxy {proxy} in cells of {cells}: vs full mesh mean {:.3} % (max {:.2} %); vs \
+             great circles {:.3} % (max {:.2} %), full mesh {:.3} %",
             100.0 * vs_full,
             100.0 * vs_full_max,
             100.0 * err,
@@ -220,6 +227,17 @@ fn geodesic_options_are_validated_and_default_in_json() {
         let mut p = with_proxy(proxy);
         p.geodesic.min_split_angle_degrees = angle;
         p.validate().unwrap();
+    }
+    for (cells, ok) in [
+        (0, true),
+        (1, false),
+        (999, false),
+        (1000, true),
+        (usize::MAX, true),
+    ] {
+        let mut p = DetectParams::default();
+        p.geodesic.proxy_cell_vertices = cells;
+        assert_eq!(detect(&mesh, &p).is_ok(), ok, "cells of {cells}");
     }
     // configurations written before the option existed read as the default
     let old: DetectParams = serde_json::from_str(r#"{"components": {"sigma": 1.2}}"#).unwrap();

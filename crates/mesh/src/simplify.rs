@@ -34,6 +34,25 @@
 //! degree; about 0.1 s for 60k vertices on one core. The process is deterministic (ties in
 //! length are broken by vertex ids).
 //!
+//! # Cells
+//!
+//! [`simplify_in_cells`] cuts the work in independent pieces that run in parallel: the
+//! referenced vertices are split into `cells` cells by recursive bisection in breadth-first
+//! order (the first part of a cell is the vertices fewest edges away from one of its
+//! extremities, the last vertex reached from its smallest id), each face goes to the cell of at least two
+//! of its vertices (of its second vertex when all three differ), and a vertex whose faces
+//! went to more than one cell is a *seam* vertex. Each cell's faces are decimated as above,
+//! with the seam vertices frozen (no edge at a seam vertex collapses: a seam vertex's ring is
+//! split between cells, so its link condition could not be checked there), towards the
+//! cell's share of the target plus its seam vertices. Every collapse in a cell is one that
+//! the whole mesh would have allowed in that state, since both ends have all their faces in
+//! the cell. A last pass over the joined result, with nothing frozen, takes the seams, still
+//! at the input's density, down to the target. The cells are a function of the connectivity
+//! alone, so the result does not depend on the number of threads, and the poses of a shape
+//! that share its vertex numbering get the same cells (a cut by coordinates would put the
+//! seams at different places of the surface in each pose); it differs from [`simplify`]'s,
+//! whose single order of collapses spans the whole mesh.
+//!
 //! Vertices that no face references are never counted, and a vertex left without faces (which
 //! happens only on non-manifold input) stops counting; protected vertices are never collapsed
 //! but can, in that non-manifold case, lose all their faces, so [`Simplified::proxy_vertex`]
@@ -42,6 +61,8 @@
 use std::cmp::Ordering;
 use std::collections::{BinaryHeap, HashSet};
 use std::hash::{BuildHasherDefault, Hasher};
+
+use rayon::prelude::*;
 
 use crate::{Mesh, Point3, VertexId};
 
@@ -65,7 +86,18 @@ const MIN_SHAPE: f64 = 1e-10;
 /// removed; ids that are not vertices of `mesh` are ignored. A `target` at or above the
 /// referenced-vertex count returns the faces unchanged.
 pub fn decimate(mesh: &Mesh, target: usize, protected: &[VertexId]) -> Vec<[VertexId; 3]> {
-    let mut d = Decimator::new(mesh, protected);
+    decimate_frozen(mesh, target, protected, &[])
+}
+
+/// [`decimate`] where no edge at a vertex of `frozen` collapses (the vertex stays, and so do
+/// its edges, though a face of one of its neighbours can still move to it).
+fn decimate_frozen(
+    mesh: &Mesh,
+    target: usize,
+    protected: &[VertexId],
+    frozen: &[VertexId],
+) -> Vec<[VertexId; 3]> {
+    let mut d = Decimator::new(mesh, protected, frozen);
     d.run(target);
     d.faces
         .iter()
@@ -73,6 +105,248 @@ pub fn decimate(mesh: &Mesh, target: usize, protected: &[VertexId]) -> Vec<[Vert
         .filter(|(_, a)| **a)
         .map(|(f, _)| *f)
         .collect()
+}
+
+/// [`decimate`] in `cells` spatial cells decimated in parallel (rayon), then once more over
+/// the whole to take the seams down to the target (see *Cells* in the module docs). `cells`
+/// ≤ 1 is [`decimate`]. The result depends on `cells` but not on the number of threads.
+pub fn decimate_in_cells(
+    mesh: &Mesh,
+    target: usize,
+    protected: &[VertexId],
+    cells: usize,
+) -> Vec<[VertexId; 3]> {
+    let n = mesh.num_vertices();
+    let mut referenced = vec![false; n];
+    for f in &mesh.faces {
+        for &v in f {
+            referenced[v as usize] = true;
+        }
+    }
+    let ids: Vec<VertexId> = (0..n as VertexId)
+        .filter(|&v| referenced[v as usize])
+        .collect();
+    let total = ids.len();
+    let cells = cells.min(total / 2).clamp(1, MAX_CELLS);
+    if cells == 1 || target >= total {
+        return decimate(mesh, target, protected);
+    }
+    let adjacency = Adjacency::new(n, &mesh.faces);
+    let mut vertex_cell = vec![0u32; n];
+    for &v in &ids {
+        vertex_cell[v as usize] = cell_tag(0);
+    }
+    let (mut seen, mut stamp) = (vec![0u32; n], 0);
+    bisect(
+        &adjacency,
+        ids,
+        cells as u32,
+        0,
+        &mut vertex_cell,
+        &mut seen,
+        &mut stamp,
+    );
+    let face_cell: Vec<u32> = mesh
+        .faces
+        .iter()
+        .map(|f| {
+            let [a, b, c] = f.map(|v| vertex_cell[v as usize]);
+            if a == b || a == c { a } else { b }
+        })
+        .collect();
+    // seam vertices: faces in more than one cell
+    const NONE: u32 = u32::MAX;
+    const SEAM: u32 = u32::MAX - 1;
+    let mut owner = vec![NONE; n];
+    for (f, &c) in mesh.faces.iter().zip(&face_cell) {
+        for &v in f {
+            let o = &mut owner[v as usize];
+            if *o == NONE {
+                *o = c;
+            } else if *o != c {
+                *o = SEAM;
+            }
+        }
+    }
+    let mut is_protected = vec![false; n];
+    for &v in protected {
+        if let Some(p) = is_protected.get_mut(v as usize) {
+            *p = true;
+        }
+    }
+    let mut cell_faces: Vec<Vec<[VertexId; 3]>> = vec![Vec::new(); cells];
+    for (f, &c) in mesh.faces.iter().zip(&face_cell) {
+        cell_faces[c as usize].push(*f);
+    }
+    let pieces: Vec<Vec<[VertexId; 3]>> = cell_faces
+        .into_par_iter()
+        .map(|faces| {
+            // the cell's vertices renumbered in increasing order of their ids
+            let mut global: Vec<VertexId> = faces.iter().flatten().copied().collect();
+            global.sort_unstable();
+            global.dedup();
+            let local = |v: VertexId| global.binary_search(&v).map_or(0, |i| i as VertexId);
+            let sub = Mesh {
+                positions: global.iter().map(|&v| mesh.positions[v as usize]).collect(),
+                faces: faces.iter().map(|f| f.map(local)).collect(),
+            };
+            let (mut sub_protected, mut frozen) = (Vec::new(), Vec::new());
+            for (i, &v) in global.iter().enumerate() {
+                if owner[v as usize] == SEAM {
+                    frozen.push(i as VertexId);
+                } else if is_protected[v as usize] {
+                    sub_protected.push(i as VertexId);
+                }
+            }
+            let inner = global.len() - frozen.len();
+            // rounded up, so the cells together keep at least the target
+            let share = (target as u128 * inner as u128).div_ceil(total as u128) as usize;
+            decimate_frozen(&sub, share + frozen.len(), &sub_protected, &frozen)
+                .into_iter()
+                .map(|f| f.map(|v| global[v as usize]))
+                .collect()
+        })
+        .collect();
+    let joined = Mesh {
+        positions: mesh.positions.clone(),
+        faces: pieces.concat(),
+    };
+    decimate(&joined, target, protected)
+}
+
+/// Vertex adjacency from faces, in compressed rows: the neighbours of `v` are
+/// `next[start[v]..start[v + 1]]` (an edge of two faces appears twice; breadth-first search
+/// does not mind).
+struct Adjacency {
+    start: Vec<u32>,
+    next: Vec<VertexId>,
+}
+
+impl Adjacency {
+    fn new(n: usize, faces: &[[VertexId; 3]]) -> Adjacency {
+        let mut start = vec![0u32; n + 1];
+        for f in faces {
+            for &v in f {
+                start[v as usize + 1] += 2;
+            }
+        }
+        for v in 0..n {
+            start[v + 1] += start[v];
+        }
+        let mut fill = start.clone();
+        let mut next = vec![0; start[n] as usize];
+        for f in faces {
+            for (i, &v) in f.iter().enumerate() {
+                for w in [f[(i + 1) % 3], f[(i + 2) % 3]] {
+                    next[fill[v as usize] as usize] = w;
+                    fill[v as usize] += 1;
+                }
+            }
+        }
+        Adjacency { start, next }
+    }
+
+    fn neighbors(&self, v: VertexId) -> &[VertexId] {
+        &self.next[self.start[v as usize] as usize..self.start[v as usize + 1] as usize]
+    }
+}
+
+/// The tag of the vertices of the cell starting at `first` while it is being split (final cells
+/// are numbered below [`MAX_CELLS`], tags from `u32::MAX` down).
+fn cell_tag(first: u32) -> u32 {
+    u32::MAX - first
+}
+
+/// Most cells of [`decimate_in_cells`].
+const MAX_CELLS: usize = 1 << 16;
+
+/// Assigns `ids` (increasing, each tagged [`cell_tag`]`(first)` in `vertex_cell`) to cells
+/// `first .. first + cells` by recursive bisection in breadth-first order: the first part of a
+/// cell is the vertices nearest in edge hops to one of its extremities. The cells follow the
+/// connectivity, not the embedding, so the poses of a shape with one vertex numbering get the
+/// same cells. `seen` and `stamp` are scratch.
+fn bisect(
+    adjacency: &Adjacency,
+    ids: Vec<VertexId>,
+    cells: u32,
+    first: u32,
+    vertex_cell: &mut [u32],
+    seen: &mut [u32],
+    stamp: &mut u32,
+) {
+    if cells <= 1 || ids.len() < 2 {
+        for &v in &ids {
+            vertex_cell[v as usize] = first;
+        }
+        return;
+    }
+    let tag = cell_tag(first);
+    // an extremity: the last vertex reached from the smallest id; then every vertex of the cell
+    // in breadth-first order from it, piece after piece (a cell need not be connected)
+    let reached = bfs(adjacency, ids[0], None, vertex_cell, tag, seen, stamp);
+    let extremity = reached.last().copied().unwrap_or(ids[0]);
+    let order = bfs(
+        adjacency,
+        extremity,
+        Some(&ids),
+        vertex_cell,
+        tag,
+        seen,
+        stamp,
+    );
+    let left = cells / 2;
+    let k = (order.len() as u64 * u64::from(left) / u64::from(cells)) as usize;
+    let (mut l, mut r) = (order[..k].to_vec(), order[k..].to_vec());
+    l.sort_unstable();
+    r.sort_unstable();
+    for &v in &r {
+        vertex_cell[v as usize] = cell_tag(first + left);
+    }
+    bisect(adjacency, l, left, first, vertex_cell, seen, stamp);
+    bisect(
+        adjacency,
+        r,
+        cells - left,
+        first + left,
+        vertex_cell,
+        seen,
+        stamp,
+    );
+}
+
+/// Breadth-first order over the vertices tagged `tag`, from `seed`; with `all`, continues from
+/// the smallest unreached vertex of `all` until every one is reached.
+fn bfs(
+    adjacency: &Adjacency,
+    seed: VertexId,
+    all: Option<&[VertexId]>,
+    vertex_cell: &[u32],
+    tag: u32,
+    seen: &mut [u32],
+    stamp: &mut u32,
+) -> Vec<VertexId> {
+    *stamp += 1;
+    let s = *stamp;
+    let mut order: Vec<VertexId> = Vec::with_capacity(all.map_or(0, <[_]>::len));
+    let mut seeds = all.unwrap_or(&[]).iter();
+    let mut next = Some(seed);
+    while let Some(v) = next {
+        seen[v as usize] = s;
+        let mut head = order.len();
+        order.push(v);
+        while head < order.len() {
+            let u = order[head];
+            head += 1;
+            for &w in adjacency.neighbors(u) {
+                if seen[w as usize] != s && vertex_cell[w as usize] == tag {
+                    seen[w as usize] = s;
+                    order.push(w);
+                }
+            }
+        }
+        next = seeds.find(|&&w| seen[w as usize] != s).copied();
+    }
+    order
 }
 
 /// A simplified mesh and how its vertices map to the input's.
@@ -97,7 +371,22 @@ impl Simplified {
 /// ([`decimate`]), and compacts the result: the survivors renumbered in order, with the map back
 /// to the input's ids.
 pub fn simplify(mesh: &Mesh, target: usize, protected: &[VertexId]) -> Simplified {
-    let faces = decimate(mesh, target, protected);
+    compact(mesh, decimate(mesh, target, protected))
+}
+
+/// [`simplify`] by [`decimate_in_cells`]: `cells` spatial cells decimated in parallel, then the
+/// seams (see *Cells* in the module docs).
+pub fn simplify_in_cells(
+    mesh: &Mesh,
+    target: usize,
+    protected: &[VertexId],
+    cells: usize,
+) -> Simplified {
+    compact(mesh, decimate_in_cells(mesh, target, protected, cells))
+}
+
+/// The referenced vertices of `faces` renumbered in increasing order, with the map back.
+fn compact(mesh: &Mesh, faces: Vec<[VertexId; 3]>) -> Simplified {
     let n = mesh.num_vertices();
     let mut new_id = vec![VertexId::MAX; n];
     for f in &faces {
@@ -234,6 +523,8 @@ struct Decimator<'a> {
     quadric: Vec<Quadric>,
     alive: Vec<bool>,
     protected: Vec<bool>,
+    /// No edge at a frozen vertex collapses.
+    frozen: Vec<bool>,
     alive_count: usize,
     /// Edges with an entry in `initial` or `heap` (one entry each).
     pending: HashSet<u64, BuildHasherDefault<EdgeHasher>>,
@@ -252,7 +543,7 @@ struct Decimator<'a> {
 }
 
 impl<'a> Decimator<'a> {
-    fn new(mesh: &'a Mesh, protected: &[VertexId]) -> Decimator<'a> {
+    fn new(mesh: &'a Mesh, protected: &[VertexId], frozen: &[VertexId]) -> Decimator<'a> {
         let n = mesh.num_vertices();
         let mut vfaces = vec![Vec::new(); n];
         let mut quadric = vec![Quadric::default(); n];
@@ -279,6 +570,12 @@ impl<'a> Decimator<'a> {
                 *p = true;
             }
         }
+        let mut is_frozen = vec![false; n];
+        for &v in frozen {
+            if let Some(p) = is_frozen.get_mut(v as usize) {
+                *p = true;
+            }
+        }
         let mut d = Decimator {
             pos: &mesh.positions,
             faces: mesh.faces.clone(),
@@ -287,6 +584,7 @@ impl<'a> Decimator<'a> {
             quadric,
             alive,
             protected: is_protected,
+            frozen: is_frozen,
             alive_count,
             pending: HashSet::default(),
             initial: Vec::new(),
@@ -398,7 +696,7 @@ impl<'a> Decimator<'a> {
             if !self.alive[a] || !self.alive[b] {
                 continue;
             }
-            if self.protected[a] && self.protected[b] {
+            if self.protected[a] && self.protected[b] || self.frozen[a] || self.frozen[b] {
                 continue; // neither end may go, now or later
             }
             let q = self.quadric[a].sum(&self.quadric[b]);

@@ -29,7 +29,12 @@ fn euler(m: &Mesh) -> i64 {
 
 /// Checks what every simplification must satisfy and returns it.
 fn check(mesh: &Mesh, target: usize, protected: &[VertexId]) -> Simplified {
-    let s = simplify(mesh, target, protected);
+    check_cells(mesh, target, protected, 1)
+}
+
+/// [`check`] of [`simplify_in_cells`].
+fn check_cells(mesh: &Mesh, target: usize, protected: &[VertexId], cells: usize) -> Simplified {
+    let s = simplify_in_cells(mesh, target, protected, cells);
     assert!(s.original.windows(2).all(|w| w[0] < w[1]));
     assert_eq!(s.original.len(), s.mesh.num_vertices());
     for (i, &o) in s.original.iter().enumerate() {
@@ -140,10 +145,11 @@ fn simplification_is_deterministic() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(24))]
+    #![proptest_config(ProptestConfig::with_cases(48))]
+    // in one pass (cells = 1) or in cells
     #[test]
     fn any_protected_set_survives_and_the_shape_stays_manifold(
-        seed in any::<u64>(), keep in 0.05f64..0.9, every in 2usize..60
+        seed in any::<u64>(), keep in 0.05f64..0.9, every in 2usize..60, cells in 1usize..10
     ) {
         let mesh = synth::protrusion_sphere(3, 0.8, 0.25);
         let n = mesh.num_vertices();
@@ -151,7 +157,7 @@ proptest! {
         let protected: Vec<VertexId> =
             (offset..n).step_by(every).map(|v| v as VertexId).collect();
         let target = ((keep * n as f64) as usize).max(4);
-        let s = check(&mesh, target, &protected);
+        let s = check_cells(&mesh, target, &protected, cells);
         prop_assert!(s.mesh.num_vertices() >= target.min(n));
         let (b, _, more) = edge_kinds(&s.mesh);
         prop_assert_eq!((b, more), (0, 0));
@@ -169,4 +175,138 @@ fn vertices_of_huge_valence_stay_and_their_neighbours_collapse() {
     assert_eq!(s.mesh.num_vertices(), 100);
     assert!(s.proxy_vertex(3000).is_some() && s.proxy_vertex(3001).is_some());
     assert_eq!(euler(&s.mesh), 2);
+}
+
+#[test]
+fn one_cell_is_the_sequential_simplification() {
+    let mesh = synth::textured_protrusion_sphere(4);
+    assert_eq!(
+        simplify_in_cells(&mesh, 700, &[3, 50], 1),
+        simplify(&mesh, 700, &[3, 50])
+    );
+}
+
+/// The cell of every vertex of `mesh` (all referenced) split into `cells`.
+fn cells_of(mesh: &Mesh, cells: u32) -> Vec<u32> {
+    let n = mesh.num_vertices();
+    let adjacency = Adjacency::new(n, &mesh.faces);
+    let mut cell = vec![cell_tag(0); n];
+    let (mut seen, mut stamp) = (vec![0; n], 0);
+    let ids = (0..n as VertexId).collect();
+    bisect(&adjacency, ids, cells, 0, &mut cell, &mut seen, &mut stamp);
+    cell
+}
+
+/// The bisection gives every cell its share of the vertices, and the cells of a long strip
+/// are pieces along it.
+#[test]
+fn the_bisection_balances_the_cells() {
+    let mesh = synth::icosphere(4, 1.0);
+    let n = mesh.num_vertices();
+    for cells in [2u32, 3, 4, 8] {
+        let cell = cells_of(&mesh, cells);
+        let mut count = vec![0usize; cells as usize];
+        for &c in &cell {
+            count[c as usize] += 1;
+        }
+        let share = n / cells as usize;
+        assert!(
+            count.iter().all(|&k| k.abs_diff(share) <= cells as usize),
+            "{cells} cells: {count:?}"
+        );
+    }
+    // two cells of a 60 × 6 strip: its two ends, meeting across about its width
+    let mesh = synth::height_field(60, 6, 0.1, |_, _| 0.0);
+    let cell = cells_of(&mesh, 2);
+    let range = |c: u32| {
+        mesh.positions
+            .iter()
+            .zip(&cell)
+            .filter(|(_, k)| **k == c)
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (p, _)| {
+                (lo.min(p.x), hi.max(p.x))
+            })
+    };
+    let (a, b) = (range(0), range(1));
+    let overlap = a.1.min(b.1) - a.0.max(b.0);
+    let length = a.1.max(b.1) - a.0.min(b.0);
+    assert!(overlap < 0.15 * length, "{a:?} {b:?}");
+}
+
+/// The cells come from the connectivity: stretching and bending the mesh leaves them alone.
+#[test]
+fn the_cells_do_not_depend_on_the_embedding() {
+    let mesh = synth::textured_protrusion_sphere(4);
+    let mut bent = mesh.clone();
+    for p in &mut bent.positions {
+        *p = Point3::new(3.0 * p.x + p.y * p.y, p.y, p.z - 0.5 * p.x * p.x);
+    }
+    for cells in [2, 4, 8] {
+        assert_eq!(cells_of(&mesh, cells), cells_of(&bent, cells));
+    }
+}
+
+#[test]
+fn cells_reach_the_target_and_keep_a_closed_manifold_sphere() {
+    let mesh = synth::icosphere(5, 1.0);
+    let n = mesh.num_vertices();
+    for cells in [2, 4, 8] {
+        for target in [n / 2, n / 8] {
+            let s = check_cells(&mesh, target, &[], cells);
+            assert_eq!(s.mesh.num_vertices(), target, "{cells} cells");
+            let (b, _, more) = edge_kinds(&s.mesh);
+            assert_eq!((b, more), (0, 0));
+            assert_eq!(euler(&s.mesh), 2);
+            // the seams are decimated too: no survivor is much closer to its nearest
+            // survivor than the typical spacing (the input's spacing is ~sqrt(target / n) of it)
+            let spacing = (4.0 * std::f64::consts::PI / target as f64).sqrt();
+            let topo = Topology::new(&s.mesh);
+            let mut short = 0;
+            for v in 0..s.mesh.num_vertices() as VertexId {
+                let p = s.mesh.positions[v as usize];
+                let nearest = topo
+                    .neighbors(v)
+                    .iter()
+                    .map(|&w| (s.mesh.positions[w as usize] - p).norm())
+                    .fold(f64::INFINITY, f64::min);
+                if nearest < 0.25 * spacing {
+                    short += 1;
+                }
+            }
+            assert!(
+                short * 100 < target,
+                "{cells} cells, {target}: {short} crowded"
+            );
+        }
+    }
+}
+
+#[test]
+fn cells_keep_a_disc_a_disc() {
+    let mesh = synth::height_field(60, 60, 0.1, |x, y| 0.3 * (x * 2.0).sin() * y.cos());
+    for cells in [2, 4, 16] {
+        let s = check_cells(&mesh, mesh.num_vertices() / 4, &[], cells);
+        let (b, _, more) = edge_kinds(&s.mesh);
+        assert_eq!(more, 0);
+        assert!(b > 0);
+        assert_eq!(euler(&s.mesh), 1);
+    }
+}
+
+/// The cells are a function of the mesh: one thread and three give the same proxy.
+#[test]
+fn cells_do_not_depend_on_the_number_of_threads() {
+    let mesh = synth::textured_protrusion_sphere(5);
+    let protected = [3, 50, 700, 5000];
+    let run = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| simplify_in_cells(&mesh, 2000, &protected, 4))
+    };
+    let one = run(1);
+    assert_eq!(one, run(3));
+    assert_eq!(one.mesh.num_vertices(), 2000);
+    assert_ne!(one, simplify(&mesh, 2000, &protected));
 }
