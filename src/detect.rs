@@ -105,10 +105,10 @@ pub struct SpeedArgs {
     /// from a keypoint to its nearest landmark) [default: 2].
     #[arg(long, value_name = "F")]
     pub landmark_radius: Option<f64>,
-    /// The proxy's simplification runs in parallel in spatial cells of at least this many
-    /// vertices (a power of two of them, at most 64), then once more over the seams; 0 = one
-    /// pass over the whole mesh. The cells depend on the mesh only, so the result is the same
-    /// on any number of threads [default: 10000].
+    /// The proxy's simplification runs in parallel in cells of at least this many vertices
+    /// (pieces of the mesh's connectivity, a power of two of them, at most 64), then once more
+    /// from the seams; 0 = one pass over the whole mesh. The cells depend on the mesh only, so
+    /// the result is the same on any number of threads [default: 10000].
     #[arg(long, value_name = "N")]
     pub proxy_cell_vertices: Option<usize>,
     /// SMACOF's starts (the paper's method: 4 random ones) [default: 2].

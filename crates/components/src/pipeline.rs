@@ -29,8 +29,8 @@
 //! simplified proxy of at most 20,000 vertices ([`GeodesicOptions::DEFAULT_PROXY_VERTICES`]),
 //! for speed: a front costs O(|V| log |V|) and there are K ≈ |V|/100 of them, so a proxy of N
 //! vertices divides the dominant term by about |V|/N, for the price of one simplification
-//! (O(|V| log |V|), about 0.1 s for 60k vertices on one thread; by default split into spatial
-//! cells of at least 10,000 vertices simplified in parallel, then the seams,
+//! (O(|V| log |V|), about 0.1 s for 60k vertices on one thread; by default split into cells
+//! of at least 10,000 vertices simplified in parallel, then the seams,
 //! [`GeodesicOptions::proxy_cell_vertices`]). The proxy keeps the survivors'
 //! exact positions and the surface's topology (link condition), so its distances differ from
 //! the mesh's by the discretisation error of fast marching on longer edges plus the shortcut of
@@ -131,7 +131,8 @@ pub struct GeodesicOptions {
     /// [`GeodesicOptions::landmarks`] > 0.
     #[serde(default = "default_landmark_radius")]
     pub landmark_radius: f64,
-    /// The proxy's simplification runs in parallel in 2^d spatial cells, d the largest that
+    /// The proxy's simplification runs in parallel in 2^d cells (pieces of the connectivity,
+    /// see `keycomp_mesh::simplify`), d the largest that
     /// leaves at least this many referenced vertices per cell (at most
     /// [`GeodesicOptions::MAX_PROXY_CELLS`] cells), then once more over the whole to close
     /// the seams (`keycomp_mesh::simplify::simplify_in_cells`); 0 or a mesh of fewer than
@@ -443,6 +444,7 @@ pub fn keypoint_distances(
         let t = Instant::now();
         let proxy = simplify::simplify_in_cells(
             mesh,
+            topo,
             options.proxy_vertices,
             keypoints,
             options.proxy_cells(referenced),

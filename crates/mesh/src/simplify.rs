@@ -46,8 +46,9 @@
 //! split between cells, so its link condition could not be checked there), towards the
 //! cell's share of the target plus its seam vertices. Every collapse in a cell is one that
 //! the whole mesh would have allowed in that state, since both ends have all their faces in
-//! the cell. A last pass over the joined result, with nothing frozen, takes the seams, still
-//! at the input's density, down to the target. The cells are a function of the connectivity
+//! the cell. A last pass over the joined result, with nothing frozen and the seam vertices'
+//! edges as its first candidates (collapses there make the edges around them candidates in
+//! turn), takes the seams, still at the input's density, down to the target. The cells are a function of the connectivity
 //! alone, so the result does not depend on the number of threads, and the poses of a shape
 //! that share its vertex numbering get the same cells (a cut by coordinates would put the
 //! seams at different places of the surface in each pose); it differs from [`simplify`]'s,
@@ -64,7 +65,7 @@ use std::hash::{BuildHasherDefault, Hasher};
 
 use rayon::prelude::*;
 
-use crate::{Mesh, Point3, VertexId};
+use crate::{Mesh, Point3, Topology, VertexId};
 
 /// Most faces a vertex may have and still be an end of a collapse. Not in Garland & Heckbert:
 /// it keeps every collapse's work bounded on meshes with vertices of huge valence (the centre
@@ -97,48 +98,38 @@ fn decimate_frozen(
     protected: &[VertexId],
     frozen: &[VertexId],
 ) -> Vec<[VertexId; 3]> {
-    let mut d = Decimator::new(mesh, protected, frozen);
+    let mut d = Decimator::new(mesh, protected, frozen, None);
     d.run(target);
-    d.faces
-        .iter()
-        .zip(&d.face_alive)
-        .filter(|(_, a)| **a)
-        .map(|(f, _)| *f)
-        .collect()
+    d.live_faces()
 }
 
-/// [`decimate`] in `cells` spatial cells decimated in parallel (rayon), then once more over
-/// the whole to take the seams down to the target (see *Cells* in the module docs). `cells`
-/// ≤ 1 is [`decimate`]. The result depends on `cells` but not on the number of threads.
+/// [`decimate`] in `cells` cells of the connectivity decimated in parallel (rayon), then once
+/// more from the seams to take them down to the target (see *Cells* in the module docs).
+/// `topo` is `Topology::new(mesh)`. `cells` ≤ 1 is [`decimate`]. The result depends on
+/// `cells` but not on the number of threads.
 pub fn decimate_in_cells(
     mesh: &Mesh,
+    topo: &Topology,
     target: usize,
     protected: &[VertexId],
     cells: usize,
 ) -> Vec<[VertexId; 3]> {
     let n = mesh.num_vertices();
-    let mut referenced = vec![false; n];
-    for f in &mesh.faces {
-        for &v in f {
-            referenced[v as usize] = true;
-        }
-    }
     let ids: Vec<VertexId> = (0..n as VertexId)
-        .filter(|&v| referenced[v as usize])
+        .filter(|&v| !topo.faces_of(v).is_empty())
         .collect();
     let total = ids.len();
     let cells = cells.min(total / 2).clamp(1, MAX_CELLS);
     if cells == 1 || target >= total {
         return decimate(mesh, target, protected);
     }
-    let adjacency = Adjacency::new(n, &mesh.faces);
     let mut vertex_cell = vec![0u32; n];
     for &v in &ids {
         vertex_cell[v as usize] = cell_tag(0);
     }
     let (mut seen, mut stamp) = (vec![0u32; n], 0);
     bisect(
-        &adjacency,
+        topo,
         ids,
         cells as u32,
         0,
@@ -168,12 +159,7 @@ pub fn decimate_in_cells(
             }
         }
     }
-    let mut is_protected = vec![false; n];
-    for &v in protected {
-        if let Some(p) = is_protected.get_mut(v as usize) {
-            *p = true;
-        }
-    }
+    let is_protected = marks(n, protected);
     let mut cell_faces: Vec<Vec<[VertexId; 3]>> = vec![Vec::new(); cells];
     for (f, &c) in mesh.faces.iter().zip(&face_cell) {
         cell_faces[c as usize].push(*f);
@@ -211,44 +197,12 @@ pub fn decimate_in_cells(
         positions: mesh.positions.clone(),
         faces: pieces.concat(),
     };
-    decimate(&joined, target, protected)
-}
-
-/// Vertex adjacency from faces, in compressed rows: the neighbours of `v` are
-/// `next[start[v]..start[v + 1]]` (an edge of two faces appears twice; breadth-first search
-/// does not mind).
-struct Adjacency {
-    start: Vec<u32>,
-    next: Vec<VertexId>,
-}
-
-impl Adjacency {
-    fn new(n: usize, faces: &[[VertexId; 3]]) -> Adjacency {
-        let mut start = vec![0u32; n + 1];
-        for f in faces {
-            for &v in f {
-                start[v as usize + 1] += 2;
-            }
-        }
-        for v in 0..n {
-            start[v + 1] += start[v];
-        }
-        let mut fill = start.clone();
-        let mut next = vec![0; start[n] as usize];
-        for f in faces {
-            for (i, &v) in f.iter().enumerate() {
-                for w in [f[(i + 1) % 3], f[(i + 2) % 3]] {
-                    next[fill[v as usize] as usize] = w;
-                    fill[v as usize] += 1;
-                }
-            }
-        }
-        Adjacency { start, next }
-    }
-
-    fn neighbors(&self, v: VertexId) -> &[VertexId] {
-        &self.next[self.start[v as usize] as usize..self.start[v as usize + 1] as usize]
-    }
+    let seams: Vec<VertexId> = (0..n as VertexId)
+        .filter(|&v| owner[v as usize] == SEAM)
+        .collect();
+    let mut d = Decimator::new(&joined, protected, &[], Some(&seams));
+    d.run(target);
+    d.live_faces()
 }
 
 /// The tag of the vertices of the cell starting at `first` while it is being split (final cells
@@ -266,7 +220,7 @@ const MAX_CELLS: usize = 1 << 16;
 /// connectivity, not the embedding, so the poses of a shape with one vertex numbering get the
 /// same cells. `seen` and `stamp` are scratch.
 fn bisect(
-    adjacency: &Adjacency,
+    topo: &Topology,
     ids: Vec<VertexId>,
     cells: u32,
     first: u32,
@@ -283,17 +237,9 @@ fn bisect(
     let tag = cell_tag(first);
     // an extremity: the last vertex reached from the smallest id; then every vertex of the cell
     // in breadth-first order from it, piece after piece (a cell need not be connected)
-    let reached = bfs(adjacency, ids[0], None, vertex_cell, tag, seen, stamp);
+    let reached = bfs(topo, ids[0], None, vertex_cell, tag, seen, stamp);
     let extremity = reached.last().copied().unwrap_or(ids[0]);
-    let order = bfs(
-        adjacency,
-        extremity,
-        Some(&ids),
-        vertex_cell,
-        tag,
-        seen,
-        stamp,
-    );
+    let order = bfs(topo, extremity, Some(&ids), vertex_cell, tag, seen, stamp);
     let left = cells / 2;
     let k = (order.len() as u64 * u64::from(left) / u64::from(cells)) as usize;
     let (mut l, mut r) = (order[..k].to_vec(), order[k..].to_vec());
@@ -302,9 +248,9 @@ fn bisect(
     for &v in &r {
         vertex_cell[v as usize] = cell_tag(first + left);
     }
-    bisect(adjacency, l, left, first, vertex_cell, seen, stamp);
+    bisect(topo, l, left, first, vertex_cell, seen, stamp);
     bisect(
-        adjacency,
+        topo,
         r,
         cells - left,
         first + left,
@@ -317,7 +263,7 @@ fn bisect(
 /// Breadth-first order over the vertices tagged `tag`, from `seed`; with `all`, continues from
 /// the smallest unreached vertex of `all` until every one is reached.
 fn bfs(
-    adjacency: &Adjacency,
+    topo: &Topology,
     seed: VertexId,
     all: Option<&[VertexId]>,
     vertex_cell: &[u32],
@@ -337,7 +283,7 @@ fn bfs(
         while head < order.len() {
             let u = order[head];
             head += 1;
-            for &w in adjacency.neighbors(u) {
+            for &w in topo.neighbors(u) {
                 if seen[w as usize] != s && vertex_cell[w as usize] == tag {
                     seen[w as usize] = s;
                     order.push(w);
@@ -347,6 +293,17 @@ fn bfs(
         next = seeds.find(|&&w| seen[w as usize] != s).copied();
     }
     order
+}
+
+/// `n` flags, set at the ids of `ids` that are below `n` (others ignored).
+fn marks(n: usize, ids: &[VertexId]) -> Vec<bool> {
+    let mut m = vec![false; n];
+    for &v in ids {
+        if let Some(p) = m.get_mut(v as usize) {
+            *p = true;
+        }
+    }
+    m
 }
 
 /// A simplified mesh and how its vertices map to the input's.
@@ -374,15 +331,19 @@ pub fn simplify(mesh: &Mesh, target: usize, protected: &[VertexId]) -> Simplifie
     compact(mesh, decimate(mesh, target, protected))
 }
 
-/// [`simplify`] by [`decimate_in_cells`]: `cells` spatial cells decimated in parallel, then the
-/// seams (see *Cells* in the module docs).
+/// [`simplify`] by [`decimate_in_cells`]: `cells` cells decimated in parallel, then the seams
+/// (see *Cells* in the module docs). `topo` is `Topology::new(mesh)`.
 pub fn simplify_in_cells(
     mesh: &Mesh,
+    topo: &Topology,
     target: usize,
     protected: &[VertexId],
     cells: usize,
 ) -> Simplified {
-    compact(mesh, decimate_in_cells(mesh, target, protected, cells))
+    compact(
+        mesh,
+        decimate_in_cells(mesh, topo, target, protected, cells),
+    )
 }
 
 /// The referenced vertices of `faces` renumbered in increasing order, with the map back.
@@ -543,7 +504,15 @@ struct Decimator<'a> {
 }
 
 impl<'a> Decimator<'a> {
-    fn new(mesh: &'a Mesh, protected: &[VertexId], frozen: &[VertexId]) -> Decimator<'a> {
+    /// A decimator of `mesh` whose pending edges are, at first, every edge, or with `from`
+    /// only the edges at those vertices (later collapses make the edges around them pending,
+    /// so the decimation spreads from there).
+    fn new(
+        mesh: &'a Mesh,
+        protected: &[VertexId],
+        frozen: &[VertexId],
+        from: Option<&[VertexId]>,
+    ) -> Decimator<'a> {
         let n = mesh.num_vertices();
         let mut vfaces = vec![Vec::new(); n];
         let mut quadric = vec![Quadric::default(); n];
@@ -564,18 +533,6 @@ impl<'a> Decimator<'a> {
         }
         let alive: Vec<bool> = vfaces.iter().map(|f| !f.is_empty()).collect();
         let alive_count = alive.iter().filter(|a| **a).count();
-        let mut is_protected = vec![false; n];
-        for &v in protected {
-            if let Some(p) = is_protected.get_mut(v as usize) {
-                *p = true;
-            }
-        }
-        let mut is_frozen = vec![false; n];
-        for &v in frozen {
-            if let Some(p) = is_frozen.get_mut(v as usize) {
-                *p = true;
-            }
-        }
         let mut d = Decimator {
             pos: &mesh.positions,
             faces: mesh.faces.clone(),
@@ -583,8 +540,8 @@ impl<'a> Decimator<'a> {
             vfaces,
             quadric,
             alive,
-            protected: is_protected,
-            frozen: is_frozen,
+            protected: marks(n, protected),
+            frozen: marks(n, frozen),
             alive_count,
             pending: HashSet::default(),
             initial: Vec::new(),
@@ -601,20 +558,42 @@ impl<'a> Decimator<'a> {
         // heap holding everything, the order of candidates being total)
         let mut edges = Vec::with_capacity(3 * mesh.num_faces() / 2 + 16);
         let mut ring = Vec::new();
-        for v in 0..n as VertexId {
-            d.ring(v, &mut ring);
-            for &(x, _) in &ring {
-                if v < x {
-                    edges.push(d.candidate(v, x));
+        match from {
+            None => {
+                for v in 0..n as VertexId {
+                    d.ring(v, &mut ring);
+                    edges.extend(ring.iter().filter(|e| v < e.0).map(|e| d.candidate(v, e.0)));
+                }
+            }
+            Some(from) => {
+                let from_set = marks(n, from);
+                for &v in from.iter().filter(|&&v| (v as usize) < n) {
+                    d.ring(v, &mut ring);
+                    edges.extend(
+                        ring.iter()
+                            .filter(|e| v < e.0 || !from_set[e.0 as usize])
+                            .map(|e| d.candidate(v, e.0)),
+                    );
                 }
             }
         }
         edges.sort_unstable();
+        edges.dedup();
         d.pending.reserve(edges.len());
         d.pending
             .extend(edges.iter().map(|c: &Candidate| edge_key(c.a, c.b)));
         d.initial = edges;
         d
+    }
+
+    /// The faces still alive, in input order.
+    fn live_faces(&self) -> Vec<[VertexId; 3]> {
+        self.faces
+            .iter()
+            .zip(&self.face_alive)
+            .filter(|(_, a)| **a)
+            .map(|(f, _)| *f)
+            .collect()
     }
 
     /// The shortest pending candidate (the greatest in [`Candidate`]'s reversed order).

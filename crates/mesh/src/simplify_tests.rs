@@ -34,7 +34,7 @@ fn check(mesh: &Mesh, target: usize, protected: &[VertexId]) -> Simplified {
 
 /// [`check`] of [`simplify_in_cells`].
 fn check_cells(mesh: &Mesh, target: usize, protected: &[VertexId], cells: usize) -> Simplified {
-    let s = simplify_in_cells(mesh, target, protected, cells);
+    let s = simplify_in_cells(mesh, &Topology::new(mesh), target, protected, cells);
     assert!(s.original.windows(2).all(|w| w[0] < w[1]));
     assert_eq!(s.original.len(), s.mesh.num_vertices());
     for (i, &o) in s.original.iter().enumerate() {
@@ -181,7 +181,7 @@ fn vertices_of_huge_valence_stay_and_their_neighbours_collapse() {
 fn one_cell_is_the_sequential_simplification() {
     let mesh = synth::textured_protrusion_sphere(4);
     assert_eq!(
-        simplify_in_cells(&mesh, 700, &[3, 50], 1),
+        simplify_in_cells(&mesh, &Topology::new(&mesh), 700, &[3, 50], 1),
         simplify(&mesh, 700, &[3, 50])
     );
 }
@@ -189,11 +189,11 @@ fn one_cell_is_the_sequential_simplification() {
 /// The cell of every vertex of `mesh` (all referenced) split into `cells`.
 fn cells_of(mesh: &Mesh, cells: u32) -> Vec<u32> {
     let n = mesh.num_vertices();
-    let adjacency = Adjacency::new(n, &mesh.faces);
+    let topo = Topology::new(mesh);
     let mut cell = vec![cell_tag(0); n];
     let (mut seen, mut stamp) = (vec![0; n], 0);
     let ids = (0..n as VertexId).collect();
-    bisect(&adjacency, ids, cells, 0, &mut cell, &mut seen, &mut stamp);
+    bisect(&topo, ids, cells, 0, &mut cell, &mut seen, &mut stamp);
     cell
 }
 
@@ -303,7 +303,7 @@ fn cells_do_not_depend_on_the_number_of_threads() {
             .num_threads(threads)
             .build()
             .unwrap()
-            .install(|| simplify_in_cells(&mesh, 2000, &protected, 4))
+            .install(|| simplify_in_cells(&mesh, &Topology::new(&mesh), 2000, &protected, 4))
     };
     let one = run(1);
     assert_eq!(one, run(3));
