@@ -78,9 +78,18 @@
 //! the defaults about 100 fronts of |V| `f64` each, about 100 MB at 134k vertices; the
 //! parameters are bounded by [`MAX_LEVELS`], [`MAX_PATCHES_PER_LEVEL`] and
 //! [`MAX_SMOOTHING_ITERATIONS`]),
-//! plus linear passes over each part's vertices and [`PAIRS`] draws per part.
+//! plus linear passes over each part's vertices and [`PAIRS`] draws per part. The levels choose
+//! their centres in parallel and the parts' fronts and descriptors are computed in parallel
+//! (rayon); a front asked for by two threads runs once, and the result does not depend on the
+//! thread count.
+//!
+//! Describing on a simplified proxy instead of the mesh was measured and left out
+//! (BENCHMARKS.md section 2, *Description on a proxy*): it cut description to a quarter of
+//! detection's time but lost up to 0.19 NN on TOSCA fragments, whose own (full-resolution)
+//! descriptions then no longer match their sources'.
 
 use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
 
 use keycomp_components::Detection;
 use keycomp_geodesic::{GeodesicError, GeodesicSolver};
@@ -89,6 +98,7 @@ use keycomp_mesh::{Mesh, Topology, Vector3, geometry};
 use nalgebra::Matrix3;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 pub mod smooth;
@@ -394,30 +404,65 @@ struct Front {
     d: Vec<f64>,
 }
 
-/// Fronts from part centres, computed once per centre (again only when a longer reach is asked).
-struct Fronts<'a> {
-    solver: &'a GeodesicSolver,
-    ws: keycomp_geodesic::Workspace,
-    done: HashMap<u32, Front>,
+impl Front {
+    /// Whether this front measures everything a front stopped at `limit` measures.
+    fn covers(&self, limit: f64) -> bool {
+        self.complete || self.limit >= limit
+    }
 }
 
-impl Fronts<'_> {
-    fn get(&mut self, c: u32, limit: f64) -> Result<&Front, DescribeError> {
-        let fresh = self
-            .done
-            .get(&c)
-            .is_some_and(|f| f.complete || f.limit >= limit);
-        if !fresh {
-            let complete = self.solver.solve_within(c, limit, &mut self.ws)?;
-            let front = Front {
-                limit,
-                complete,
-                d: self.ws.distances().to_vec(),
-            };
-            self.done.insert(c, front);
+/// Fronts from part centres, computed once per centre (again only when a longer reach is
+/// asked), from any thread: a thread asking for a centre another is running waits for that
+/// front instead of running it twice, and the cache keeps the longest front of each centre, so
+/// what it holds once a set of fronts has been asked for does not depend on the order they ran
+/// in.
+struct Fronts<'a> {
+    solver: &'a GeodesicSolver,
+    /// Workspaces not in use (one per thread that ran a front).
+    spare: Mutex<Vec<keycomp_geodesic::Workspace>>,
+    /// Per centre, its longest front so far.
+    done: Mutex<HashMap<u32, Arc<Slot>>>,
+}
+
+/// A centre's longest front so far, locked while a front from it runs.
+type Slot = Mutex<Option<Arc<Front>>>;
+
+impl<'a> Fronts<'a> {
+    fn new(solver: &'a GeodesicSolver) -> Self {
+        Fronts {
+            solver,
+            spare: Mutex::new(Vec::new()),
+            done: Mutex::new(HashMap::new()),
         }
-        Ok(&self.done[&c])
     }
+
+    /// The front from `c` up to at least `limit`.
+    fn get(&self, c: u32, limit: f64) -> Result<Arc<Front>, DescribeError> {
+        let slot = lock(&self.done).entry(c).or_default().clone();
+        let mut slot = lock(&slot);
+        if let Some(f) = slot.as_ref().filter(|f| f.covers(limit)) {
+            return Ok(f.clone());
+        }
+        let spare = lock(&self.spare).pop();
+        let mut ws = spare.unwrap_or_else(|| self.solver.workspace());
+        let complete = self.solver.solve_within(c, limit, &mut ws)?;
+        let front = Front {
+            limit,
+            complete,
+            d: ws.distances().to_vec(),
+        };
+        lock(&self.spare).push(ws);
+        let front = Arc::new(front);
+        // what the slot held did not cover `limit`: this front reaches farther
+        *slot = Some(front.clone());
+        Ok(front)
+    }
+}
+
+/// Locks `m`, whether or not another thread panicked while holding it (the data are plain
+/// caches, complete after every write).
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|e| e.into_inner())
 }
 
 /// A part before description.
@@ -465,11 +510,7 @@ pub fn describe_all(
         check(mesh, det, params)?;
     }
     let (surface, boundary, solver) = prepare(mesh, det, first)?;
-    let mut fronts = Fronts {
-        solver: &solver,
-        ws: solver.workspace(),
-        done: HashMap::new(),
-    };
+    let fronts = Fronts::new(&solver);
     all.iter()
         .map(|params| {
             let same_surface = DescribeParams {
@@ -477,7 +518,7 @@ pub fn describe_all(
                 ..first.clone()
             } == *params;
             if same_surface {
-                describe_parts(&surface, &boundary, det, params, &mut fronts)
+                describe_parts(&surface, &boundary, det, params, &fronts)
             } else {
                 describe_with(mesh, det, params)
             }
@@ -533,7 +574,7 @@ fn check(mesh: &Mesh, det: &Detection, params: &DescribeParams) -> Result<(), De
     Ok(())
 }
 
-/// The surface `params` describes `mesh` on (scaled to the length unit, smoothed, with its
+/// The surface `params` describe `mesh` on (scaled to the length unit, smoothed, with its
 /// Harris fits), which vertices lie on its boundary, and its geodesic solver.
 fn prepare(
     mesh: &Mesh,
@@ -595,6 +636,96 @@ fn prepare(
     Ok((surface, boundary, solver))
 }
 
+/// The patches of one level of radius `radius` (level number `level`), in order, and the
+/// clipped ones (see *Parts*).
+fn level_patches(
+    surface: &Surface,
+    boundary: &[bool],
+    det: &Detection,
+    params: &DescribeParams,
+    fronts: &Fronts,
+    radius: f64,
+    level: u8,
+) -> Result<(Vec<Part>, Vec<Part>), DescribeError> {
+    let n = surface.mesh.num_vertices();
+    let clipped = |vs: &[u32]| params.complete_only && vs.iter().any(|&v| boundary[v as usize]);
+    let (mut parts, mut clipped_parts) = (Vec::new(), Vec::new());
+    let reach = params.layout_reach.map_or(f64::INFINITY, |r| r.max(radius));
+    let mut nearest = vec![f64::INFINITY; n];
+    // Euclidean distance to the nearest centre, ranking the vertices beyond the reach
+    let mut euclid = vec![f64::INFINITY; n];
+    let mut rejected = vec![false; n];
+    let (mut chosen, mut fronts_run) = (0, 0);
+    let mut candidates = det.keypoints.iter().copied();
+    // a front per candidate centre; clipped candidates cost one too, so they are bounded
+    while chosen < params.patches_per_level && fronts_run < 2 * params.patches_per_level {
+        // keypoints best first, then the vertex farthest from every chosen centre
+        let next = candidates
+            .by_ref()
+            .find(|&k| nearest[k as usize] >= radius && !rejected[k as usize])
+            .or_else(|| {
+                let far = |v: usize| {
+                    if nearest[v].is_finite() || euclid[v].is_infinite() {
+                        nearest[v]
+                    } else {
+                        reach + euclid[v]
+                    }
+                };
+                let (v, d) = (0..n)
+                    .filter(|&v| !rejected[v])
+                    .map(|v| (v, far(v)))
+                    .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)))?;
+                (d >= radius).then_some(v as u32)
+            });
+        let Some(c) = next else { break };
+        fronts_run += 1;
+        let front = fronts.get(c, reach)?;
+        // only what a front stopped at `reach` measures, whatever the cache holds
+        let d = |v: usize| {
+            let x = front.d[v];
+            if x <= reach { x } else { f64::INFINITY }
+        };
+        let vertices: Vec<u32> = (0..n as u32).filter(|&v| d(v as usize) <= radius).collect();
+        let part = Part {
+            center: c,
+            reach,
+            keypoints: count_keypoints(det, &vertices),
+            vertices,
+            level,
+        };
+        if clipped(&part.vertices) {
+            rejected[c as usize] = true;
+            if part.vertices.len() >= 3 {
+                clipped_parts.push(part);
+            }
+            continue;
+        }
+        for (v, m) in nearest.iter_mut().enumerate() {
+            *m = m.min(d(v));
+        }
+        nearest[c as usize] = 0.0;
+        if reach.is_finite() {
+            let pc = surface.mesh.positions[c as usize];
+            for (e, p) in euclid.iter_mut().zip(&surface.mesh.positions) {
+                *e = e.min((p - pc).norm());
+            }
+        }
+        chosen += 1;
+        if part.vertices.len() >= 3 {
+            parts.push(part);
+        }
+    }
+    Ok((parts, clipped_parts))
+}
+
+/// How many of the detection's keypoints are among vertices `vs` (sorted).
+fn count_keypoints(det: &Detection, vs: &[u32]) -> usize {
+    det.keypoints
+        .iter()
+        .filter(|k| vs.binary_search(k).is_ok())
+        .count()
+}
+
 /// The parts of the prepared `surface` under `params` (see *Parts*), their descriptors, layout
 /// and the surface sample; fronts come from (and go to) `fronts`.
 fn describe_parts(
@@ -602,18 +733,13 @@ fn describe_parts(
     boundary: &[bool],
     det: &Detection,
     params: &DescribeParams,
-    fronts: &mut Fronts,
+    fronts: &Fronts,
 ) -> Result<ShapeDescription, DescribeError> {
     let n = surface.mesh.num_vertices();
     let clipped = |vs: &[u32]| params.complete_only && vs.iter().any(|&v| boundary[v as usize]);
     // parts reaching the boundary, used only when the mesh has no complete part
     let mut clipped_parts: Vec<Part> = Vec::new();
     let total: f64 = surface.areas.iter().sum();
-    let mut is_keypoint = vec![false; n];
-    for &k in &det.keypoints {
-        is_keypoint[k as usize] = true;
-    }
-    let count_keypoints = |vs: &[u32]| vs.iter().filter(|&&v| is_keypoint[v as usize]).count();
 
     let whole_level = (params.levels.len() + 1).min(255) as u8;
     let mut parts: Vec<Part> = Vec::new();
@@ -632,68 +758,19 @@ fn describe_parts(
         }
     }
     if n > 0 {
-        for (l, &radius) in params.levels.iter().enumerate() {
-            let reach = params.layout_reach.map_or(f64::INFINITY, |r| r.max(radius));
-            let mut nearest = vec![f64::INFINITY; n];
-            // Euclidean distance to the nearest centre, ranking the vertices beyond the reach
-            let mut euclid = vec![f64::INFINITY; n];
-            let mut rejected = vec![false; n];
-            let (mut chosen, mut fronts_run) = (0, 0);
-            let mut candidates = det.keypoints.iter().copied();
-            // a front per candidate centre; clipped candidates cost one too, so they are bounded
-            while chosen < params.patches_per_level && fronts_run < 2 * params.patches_per_level {
-                // keypoints best first, then the vertex farthest from every chosen centre
-                let next = candidates
-                    .by_ref()
-                    .find(|&k| nearest[k as usize] >= radius && !rejected[k as usize])
-                    .or_else(|| {
-                        let far = |v: usize| {
-                            if nearest[v].is_finite() || euclid[v].is_infinite() {
-                                nearest[v]
-                            } else {
-                                reach + euclid[v]
-                            }
-                        };
-                        let (v, d) = (0..n)
-                            .filter(|&v| !rejected[v])
-                            .map(|v| (v, far(v)))
-                            .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)))?;
-                        (d >= radius).then_some(v as u32)
-                    });
-                let Some(c) = next else { break };
-                fronts_run += 1;
-                let d = &fronts.get(c, reach)?.d;
-                let vertices: Vec<u32> =
-                    (0..n as u32).filter(|&v| d[v as usize] <= radius).collect();
-                let part = Part {
-                    center: c,
-                    reach,
-                    keypoints: count_keypoints(&vertices),
-                    vertices,
-                    level: (l + 1).min(254) as u8,
-                };
-                if clipped(&part.vertices) {
-                    rejected[c as usize] = true;
-                    if part.vertices.len() >= 3 {
-                        clipped_parts.push(part);
-                    }
-                    continue;
-                }
-                for (m, &x) in nearest.iter_mut().zip(d) {
-                    *m = m.min(x);
-                }
-                nearest[c as usize] = 0.0;
-                if reach.is_finite() {
-                    let pc = surface.mesh.positions[c as usize];
-                    for (e, p) in euclid.iter_mut().zip(&surface.mesh.positions) {
-                        *e = e.min((p - pc).norm());
-                    }
-                }
-                chosen += 1;
-                if part.vertices.len() >= 3 {
-                    parts.push(part);
-                }
-            }
+        // the levels choose their centres independently of each other: in parallel
+        let levels: Vec<(Vec<Part>, Vec<Part>)> = params
+            .levels
+            .par_iter()
+            .enumerate()
+            .map(|(l, &radius)| {
+                let level = (l + 1).min(254) as u8;
+                level_patches(surface, boundary, det, params, fronts, radius, level)
+            })
+            .collect::<Result<_, _>>()?;
+        for (p, c) in levels {
+            parts.extend(p);
+            clipped_parts.extend(c);
         }
         if params.whole {
             // centre: the vertex nearest the area-weighted centroid
@@ -731,31 +808,55 @@ fn describe_parts(
         parts = clipped_parts;
     }
 
+    // every front the parts need, in parallel, each as far as its farthest use: what each part
+    // reads below then does not depend on the order the fronts ran in
+    let mut reach: HashMap<u32, f64> = HashMap::new();
+    for p in &parts {
+        let r = reach.entry(p.center).or_insert(p.reach);
+        *r = r.max(p.reach);
+    }
+    let mut needed: Vec<(u32, f64)> = reach.into_iter().collect();
+    needed.sort_by_key(|&(c, _)| c);
+    needed
+        .par_iter()
+        .map(|&(c, r)| fronts.get(c, r).map(|_| ()))
+        .collect::<Result<(), _>>()?;
+
     let m = parts.len();
     let centers: Vec<u32> = parts.iter().map(|p| p.center).collect();
-    let mut layout = vec![0f32; m * m];
-    // whether each part's front covered its whole piece (+∞ then means another piece)
+    // per part: its layout row, whether its front covered its whole piece (+∞ then means
+    // another piece), and its description
+    let described: Vec<(Vec<f32>, bool, ComponentDescription)> = parts
+        .into_par_iter()
+        .map(|p| {
+            let front = fronts.get(p.center, p.reach)?;
+            let d = &front.d;
+            let row: Vec<f32> = centers.iter().map(|&o| d[o as usize] as f32).collect();
+            let (descriptor, radius, area) = describe_part(surface, &p, d);
+            let at = surface.mesh.positions[p.center as usize];
+            Ok((
+                row,
+                front.complete,
+                ComponentDescription {
+                    descriptor,
+                    center: p.center,
+                    position: [at.x as f32, at.y as f32, at.z as f32],
+                    area: if total > 0.0 { area / total } else { 0.0 },
+                    keypoints: p.keypoints,
+                    radius,
+                    level: p.level,
+                    vertices: p.vertices,
+                },
+            ))
+        })
+        .collect::<Result<_, DescribeError>>()?;
+    let mut layout = Vec::with_capacity(m * m);
     let mut complete = Vec::with_capacity(m);
     let mut components = Vec::with_capacity(m);
-    for (ci, p) in parts.into_iter().enumerate() {
-        let front = fronts.get(p.center, p.reach)?;
-        let d = &front.d;
-        complete.push(front.complete);
-        for (cj, &o) in centers.iter().enumerate() {
-            layout[ci * m + cj] = d[o as usize] as f32;
-        }
-        let (descriptor, radius, area) = describe_part(surface, &p, d);
-        let at = surface.mesh.positions[p.center as usize];
-        components.push(ComponentDescription {
-            descriptor,
-            center: p.center,
-            position: [at.x as f32, at.y as f32, at.z as f32],
-            area: if total > 0.0 { area / total } else { 0.0 },
-            keypoints: p.keypoints,
-            radius,
-            level: p.level,
-            vertices: p.vertices,
-        });
+    for (row, c, desc) in described {
+        layout.extend(row);
+        complete.push(c);
+        components.push(desc);
     }
     // symmetrise the layout; disconnected pairs get twice the largest finite distance, pairs
     // beyond the reach of both fronts none

@@ -16,22 +16,27 @@ pub const MU: f64 = -0.53;
 pub fn taubin(mesh: &Mesh, topo: &Topology, iterations: usize) -> Vec<Point3<f64>> {
     let mut p = mesh.positions.clone();
     let mut next = p.clone();
+    let fixed: Vec<bool> = (0..p.len() as u32)
+        .map(|v| topo.neighbors(v).is_empty() || topo.is_boundary(v))
+        .collect();
     for _ in 0..iterations {
         for step in [LAMBDA, MU] {
-            next.par_iter_mut().enumerate().for_each(|(v, out)| {
-                let vid = v as u32;
-                let nb = topo.neighbors(vid);
-                if nb.is_empty() || topo.is_boundary(vid) {
-                    *out = p[v];
-                    return;
-                }
-                let mut c = nalgebra::Vector3::zeros();
-                for &u in nb {
-                    c += p[u as usize].coords;
-                }
-                c /= nb.len() as f64;
-                *out = p[v] + (c - p[v].coords) * step;
-            });
+            next.par_iter_mut()
+                .enumerate()
+                .with_min_len(1024)
+                .for_each(|(v, out)| {
+                    let nb = topo.neighbors(v as u32);
+                    if fixed[v] {
+                        *out = p[v];
+                        return;
+                    }
+                    let mut c = nalgebra::Vector3::zeros();
+                    for &u in nb {
+                        c += p[u as usize].coords;
+                    }
+                    c /= nb.len() as f64;
+                    *out = p[v] + (c - p[v].coords) * step;
+                });
             std::mem::swap(&mut p, &mut next);
         }
     }

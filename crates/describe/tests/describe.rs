@@ -182,7 +182,15 @@ fn shared_data() -> Option<PathBuf> {
 #[test]
 fn corresponding_components_are_closer_than_others_on_tosca_cats() {
     let Some(data) = shared_data() else { return };
-    let p = DetectParams::default();
+    // geodesics on the meshes themselves (the paper's), so that which components correspond
+    // does not hang on the speed options of detection: this is a property of the descriptors
+    let p = DetectParams {
+        geodesic: keycomp_components::GeodesicOptions {
+            proxy_vertices: 0,
+            ..Default::default()
+        },
+        ..DetectParams::default()
+    };
     let null = read_mesh(&data.join("tosca/cat0.off")).expect("cat0").mesh;
     let areas = geometry::vertex_areas(&null);
     let dn = detect(&null, &p).expect("detect");
@@ -359,4 +367,29 @@ fn describing_under_several_parameters_equals_describing_under_each() {
             .expect("nothing")
             .is_empty()
     );
+}
+
+#[test]
+fn descriptions_do_not_depend_on_the_thread_count() {
+    // the levels and the fronts run in parallel; with fronts stopped at a reach, a centre
+    // shared by two levels is asked for at two reaches, in whatever order the threads come
+    let mesh = synth::textured_protrusion_sphere(5);
+    let det = detect(&mesh, &DetectParams::default()).expect("detect");
+    let reach = DescribeParams {
+        layout_reach: Some(0.2),
+        ..DescribeParams::default()
+    };
+    for params in [DescribeParams::default(), reach] {
+        let on = |threads: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .expect("pool")
+                .install(|| describe_with(&mesh, &det, &params).expect("describe"))
+        };
+        let one = on(1);
+        for threads in [2, 3, 4] {
+            assert_eq!(one, on(threads), "{threads} threads");
+        }
+    }
 }
