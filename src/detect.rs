@@ -85,8 +85,8 @@ pub struct SpeedArgs {
     /// Run the fast-marching fronts on a proxy of at most N vertices (the mesh simplified by
     /// half-edge collapse, keypoints kept as vertices) when the mesh has more; 0 = the full
     /// mesh, as in the paper. The default proxy is a deviation from the paper, made for speed
-    /// (2.6× fewer CPU cycles on 50–60k vertices; distances within 0.4–0.9 % on average,
-    /// repeatability within noise: BENCHMARKS.md section 2) [default: 20000]
+    /// (several times fewer CPU cycles on 50–60k vertices; repeatability and retrieval within
+    /// noise: BENCHMARKS.md section 2) [default: 10000]
     #[arg(long, value_name = "N")]
     pub geodesic_vertices: Option<usize>,
     /// Fast marching splits obtuse corners of at least this angle, in degrees (90 = every

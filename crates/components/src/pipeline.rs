@@ -26,7 +26,7 @@
 //! # Geodesic proxy (a deviation from the paper, on by default)
 //!
 //! The paper computes the distances on the mesh itself. By default we run the fronts on a
-//! simplified proxy of at most 20,000 vertices ([`GeodesicOptions::DEFAULT_PROXY_VERTICES`]),
+//! simplified proxy of at most 10,000 vertices ([`GeodesicOptions::DEFAULT_PROXY_VERTICES`]),
 //! for speed: a front costs O(|V| log |V|) and there are K ≈ |V|/100 of them, so a proxy of N
 //! vertices divides the dominant term by about |V|/N, for the price of one simplification
 //! (O(|V| log |V|), about 0.1 s for 60k vertices on one thread; by default split into cells
@@ -40,8 +40,12 @@
 //! error against great circles is 0.95 % (full mesh 0.49 %); TOSCA cat poses keep their mean
 //! best IoU (0.863 both ways) and the repeatability benchmark its KC-1 average overlap within
 //! the noise of the SMACOF seed (strength ≤ 5: 0.844 vs 0.847 with seed 0, 0.839 vs 0.840 with
-//! seed 1), while detection takes 2.6× (50k vertices) to 2.7× (60k) fewer CPU cycles.
-//! Meshes of at most 20,000 referenced vertices are not affected. [`GeodesicOptions::full_mesh`]
+//! seed 1), while detection takes 2.6× (50k vertices) to 2.7× (60k) fewer CPU cycles. The
+//! default went from 20,000 to 10,000 vertices on 2026-12-04 (BENCHMARKS.md section 2, *A
+//! 10,000-vertex proxy*): KC-1 average overlap at strength ≤ 5 0.850 → 0.848 (no row more
+//! than 0.016 lower), the retrieval tables on Watertight and TOSCA within 0.01 of the 20k
+//! proxy's, `keycomp detect` 0.76× (nefertiti) and 0.79× (KIDS) the wall time.
+//! Meshes of at most 10,000 referenced vertices are not affected. [`GeodesicOptions::full_mesh`]
 //! (`proxy_vertices` = 0; `keycomp detect --geodesic-vertices 0`) is the paper's method. Only
 //! step 3 sees the proxy: Harris, region growing and every reported id use the mesh.
 //!
@@ -78,7 +82,7 @@ use crate::{
 
 /// All parameters of detection: the keypoint detector, the components stage and the geodesic
 /// options. The default is the paper's KC-1 (1 % of the vertices as keypoints, R = 0.15,
-/// T = 0.30, N = 30, σ = 1.5) with the fronts on a proxy of at most 20,000 vertices, landmark
+/// T = 0.30, N = 30, σ = 1.5) with the fronts on a proxy of at most 10,000 vertices, landmark
 /// fronts and SMACOF's classical start (see *Geodesic proxy* and *Landmark fronts* in the
 /// module docs).
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -110,7 +114,7 @@ pub struct GeodesicOptions {
     /// vertices (the keypoints are protected, so a proxy can keep more when there are many);
     /// 0: always the full mesh, as in the paper. Any other value must be at least
     /// [`GeodesicOptions::MIN_PROXY_VERTICES`]. Default
-    /// [`GeodesicOptions::DEFAULT_PROXY_VERTICES`] (20,000; a deviation from the paper, see
+    /// [`GeodesicOptions::DEFAULT_PROXY_VERTICES`] (10,000; a deviation from the paper, see
     /// *Geodesic proxy* in the module docs).
     pub proxy_vertices: usize,
     /// Obtuse corners of at least this angle (degrees, in [90, 180]) are split by unfolding
@@ -152,10 +156,10 @@ fn default_landmark_radius() -> f64 {
 impl GeodesicOptions {
     /// The smallest non-zero [`GeodesicOptions::proxy_vertices`].
     pub const MIN_PROXY_VERTICES: usize = 100;
-    /// The default [`GeodesicOptions::proxy_vertices`]: 20,000, chosen by the measurements in
-    /// the module docs (*Geodesic proxy*): a 50–60k-vertex mesh detected with 2.6× fewer
-    /// cycles, repeatability within noise, mean distance differences below 1 %.
-    pub const DEFAULT_PROXY_VERTICES: usize = 20_000;
+    /// The default [`GeodesicOptions::proxy_vertices`]: 10,000, chosen by the measurements in
+    /// the module docs (*Geodesic proxy*): repeatability and retrieval within 0.02 of a 20k
+    /// proxy's, detection of a 50–60k-vertex mesh in about 0.8× a 20k proxy's wall time.
+    pub const DEFAULT_PROXY_VERTICES: usize = 10_000;
     /// The default [`GeodesicOptions::landmarks`]: 100 (meshes of more than about 10,000
     /// vertices, whose 1 % of keypoints exceeds it, get landmark fronts; see *Landmark fronts*
     /// in the module docs).

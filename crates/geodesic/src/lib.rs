@@ -75,9 +75,10 @@
 //! previous front touched. A K×K [`distance_matrix`] costs K fronts (each stopping once all K
 //! keypoints are frozen — in practice after nearly the whole mesh, the farthest keypoint being
 //! near the far end), shared among the rayon threads. Key-component detection
-//! (`keycomp_components::pipeline`) by default runs these fronts on a proxy of at most 20,000
+//! (`keycomp_components::pipeline`) by default runs these fronts on a proxy of at most 10,000
 //! vertices simplified from the mesh with the keypoints kept (`keycomp_mesh::simplify`), which
-//! makes the K×K matrix of a 50–60k-vertex mesh 2.6× cheaper (BENCHMARKS.md, section 2).
+//! makes the K×K matrix of a 50–60k-vertex mesh several times cheaper (BENCHMARKS.md,
+//! section 2).
 //!
 //! Per front of a K×K matrix (K = 1 % of the vertices, one thread, median of 5 alternated runs,
 //! user-space cycles from `perf stat`, one x86 core at about 4 GHz shared with another
