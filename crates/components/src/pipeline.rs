@@ -43,7 +43,7 @@
 //! seed 1), while detection takes 2.6× (50k vertices) to 2.7× (60k) fewer CPU cycles. The
 //! default went from 20,000 to 10,000 vertices on 2026-12-04 (BENCHMARKS.md section 2, *A
 //! 10,000-vertex proxy*): KC-1 average overlap at strength ≤ 5 0.850 → 0.848 (no row more
-//! than 0.016 lower), the retrieval tables on Watertight and TOSCA within 0.01 of the 20k
+//! than 0.019 lower), the retrieval tables on Watertight and TOSCA within 0.01 of the 20k
 //! proxy's, `keycomp detect` 0.76× (nefertiti) and 0.79× (KIDS) the wall time.
 //! Meshes of at most 10,000 referenced vertices are not affected. [`GeodesicOptions::full_mesh`]
 //! (`proxy_vertices` = 0; `keycomp detect --geodesic-vertices 0`) is the paper's method. Only

@@ -83,10 +83,9 @@
 //! (rayon); a front asked for by two threads runs once, and the result does not depend on the
 //! thread count.
 //!
-//! Describing on a simplified proxy instead of the mesh was measured and left out
-//! (BENCHMARKS.md section 2, *Description on a proxy*): it cut description to a quarter of
-//! detection's time but lost up to 0.19 NN on TOSCA fragments, whose own (full-resolution)
-//! descriptions then no longer match their sources'.
+//! Describing on a simplified proxy instead of the mesh was tried and left out (BENCHMARKS.md
+//! section 2, *Description on a proxy*): it made description much cheaper but lowered the
+//! retrieval of TOSCA fragments, whose own descriptions are made at full resolution.
 
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
@@ -636,17 +635,32 @@ fn prepare(
     Ok((surface, boundary, solver))
 }
 
+/// What every patch level reads (see *Parts*).
+struct Levels<'a> {
+    surface: &'a Surface,
+    boundary: &'a [bool],
+    det: &'a Detection,
+    /// Whether each vertex is one of the detection's keypoints.
+    is_keypoint: &'a [bool],
+    params: &'a DescribeParams,
+    fronts: &'a Fronts<'a>,
+}
+
 /// The patches of one level of radius `radius` (level number `level`), in order, and the
 /// clipped ones (see *Parts*).
 fn level_patches(
-    surface: &Surface,
-    boundary: &[bool],
-    det: &Detection,
-    params: &DescribeParams,
-    fronts: &Fronts,
+    at: &Levels,
     radius: f64,
     level: u8,
 ) -> Result<(Vec<Part>, Vec<Part>), DescribeError> {
+    let Levels {
+        surface,
+        boundary,
+        det,
+        is_keypoint,
+        params,
+        fronts,
+    } = *at;
     let n = surface.mesh.num_vertices();
     let clipped = |vs: &[u32]| params.complete_only && vs.iter().any(|&v| boundary[v as usize]);
     let (mut parts, mut clipped_parts) = (Vec::new(), Vec::new());
@@ -689,7 +703,10 @@ fn level_patches(
         let part = Part {
             center: c,
             reach,
-            keypoints: count_keypoints(det, &vertices),
+            keypoints: vertices
+                .iter()
+                .filter(|&&v| is_keypoint[v as usize])
+                .count(),
             vertices,
             level,
         };
@@ -718,14 +735,6 @@ fn level_patches(
     Ok((parts, clipped_parts))
 }
 
-/// How many of the detection's keypoints are among vertices `vs` (sorted).
-fn count_keypoints(det: &Detection, vs: &[u32]) -> usize {
-    det.keypoints
-        .iter()
-        .filter(|k| vs.binary_search(k).is_ok())
-        .count()
-}
-
 /// The parts of the prepared `surface` under `params` (see *Parts*), their descriptors, layout
 /// and the surface sample; fronts come from (and go to) `fronts`.
 fn describe_parts(
@@ -740,6 +749,10 @@ fn describe_parts(
     // parts reaching the boundary, used only when the mesh has no complete part
     let mut clipped_parts: Vec<Part> = Vec::new();
     let total: f64 = surface.areas.iter().sum();
+    let mut is_keypoint = vec![false; n];
+    for &k in &det.keypoints {
+        is_keypoint[k as usize] = true;
+    }
 
     let whole_level = (params.levels.len() + 1).min(255) as u8;
     let mut parts: Vec<Part> = Vec::new();
@@ -759,13 +772,21 @@ fn describe_parts(
     }
     if n > 0 {
         // the levels choose their centres independently of each other: in parallel
+        let at = Levels {
+            surface,
+            boundary,
+            det,
+            is_keypoint: &is_keypoint,
+            params,
+            fronts,
+        };
         let levels: Vec<(Vec<Part>, Vec<Part>)> = params
             .levels
             .par_iter()
             .enumerate()
             .map(|(l, &radius)| {
                 let level = (l + 1).min(254) as u8;
-                level_patches(surface, boundary, det, params, fronts, radius, level)
+                level_patches(&at, radius, level)
             })
             .collect::<Result<_, _>>()?;
         for (p, c) in levels {

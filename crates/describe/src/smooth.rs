@@ -25,11 +25,11 @@ pub fn taubin(mesh: &Mesh, topo: &Topology, iterations: usize) -> Vec<Point3<f64
                 .enumerate()
                 .with_min_len(1024)
                 .for_each(|(v, out)| {
-                    let nb = topo.neighbors(v as u32);
                     if fixed[v] {
                         *out = p[v];
                         return;
                     }
+                    let nb = topo.neighbors(v as u32);
                     let mut c = nalgebra::Vector3::zeros();
                     for &u in nb {
                         c += p[u as usize].coords;
