@@ -17,10 +17,10 @@
 
 use keycomp_components::{
     ClusterParams, ComponentParams, ComponentsError, DetectError, DetectParams, GeodesicOptions,
-    RegionGrower, SmacofParams, adaptive_clustering, detect, geodesic_center, min_enclosing_sphere,
+    RegionGrower, SmacofParams, detect, extract_components,
 };
 use keycomp_harris::HarrisParams;
-use keycomp_mesh::{Mesh, Point3, Topology, VertexId, geometry};
+use keycomp_mesh::{Mesh, Topology, VertexId, geometry};
 
 /// The clustering-independent part of a detection: keypoints and their 2-D images.
 #[derive(Debug, Clone, PartialEq)]
@@ -81,36 +81,20 @@ impl Extractor {
         cluster: &ClusterParams,
         sigma: f64,
     ) -> Result<Vec<Vec<VertexId>>, ComponentsError> {
-        let n = self.norm.num_vertices();
-        if embedded.points.len() != embedded.keypoints.len() {
-            return Err(ComponentsError::IndexOutOfRange {
-                what: "embedded point count",
-                index: embedded.points.len(),
-                len: embedded.keypoints.len(),
-            });
-        }
-        if let Some(&v) = embedded.keypoints.iter().find(|&&v| v as usize >= n) {
-            return Err(ComponentsError::IndexOutOfRange {
-                what: "keypoint vertex",
-                index: v as usize,
-                len: n,
-            });
-        }
-        let clustering = adaptive_clustering(&embedded.points, cluster)?;
         let mut grower = RegionGrower::new(&self.norm, &self.topo)?;
-        let mut out = Vec::with_capacity(clustering.clusters.len());
-        for c in &clustering.clusters {
-            let center = embedded.keypoints[geodesic_center(&c.members, &embedded.points)?];
-            let mut keypoints: Vec<VertexId> =
-                c.members.iter().map(|&i| embedded.keypoints[i]).collect();
-            keypoints.sort_unstable();
-            let points: Vec<Point3<f64>> = keypoints
-                .iter()
-                .map(|&v| self.norm.positions[v as usize])
-                .collect();
-            let sphere = min_enclosing_sphere(&points)?;
-            out.push(grower.grow(center, &keypoints, &sphere, sigma)?.vertices);
-        }
+        let extracted = extract_components(
+            &self.norm,
+            &mut grower,
+            &embedded.keypoints,
+            &embedded.points,
+            cluster,
+            sigma,
+        )?;
+        let out = extracted
+            .components
+            .into_iter()
+            .map(|c| c.grown.vertices)
+            .collect();
         Ok(out)
     }
 }

@@ -28,8 +28,8 @@ pub use error::ComponentsError;
 pub use grow::{Component, RegionGrower, geodesic_center};
 pub use params::{ComponentParams, Preset};
 pub use pipeline::{
-    DetectError, DetectParams, Detection, GeodesicOptions, KeyComponent, Timings, detect,
-    keypoint_distances,
+    DetectError, DetectParams, Detection, Extracted, ExtractedComponent, GeodesicOptions,
+    KeyComponent, Timings, detect, extract_components, keypoint_distances,
 };
 pub use smacof::{Embedding, SmacofParams, smacof};
 pub use sphere::{Sphere, min_enclosing_sphere};

@@ -76,8 +76,8 @@ use keycomp_mesh::{Mesh, Point3, Topology, VertexId, geometry, simplify};
 use serde::{Deserialize, Serialize};
 
 use crate::{
-    ComponentParams, ComponentsError, Embedding, RegionGrower, Sphere, adaptive_clustering,
-    geodesic_center, min_enclosing_sphere, smacof,
+    ClusterParams, Component, ComponentParams, ComponentsError, Embedding, RegionGrower, Sphere,
+    adaptive_clustering, geodesic_center, min_enclosing_sphere, smacof,
 };
 
 /// All parameters of detection: the keypoint detector, the components stage and the geodesic
@@ -365,48 +365,39 @@ pub fn detect(mesh: &Mesh, params: &DetectParams) -> Result<Detection, DetectErr
     let t_mds = ms(t);
 
     let t = Instant::now();
-    let clustering = adaptive_clustering(&embedding.points, &params.components.cluster)?;
-    let t_cluster = ms(t);
-
-    let t = Instant::now();
     let face_areas = geometry::face_areas(&norm);
     let total: f64 = face_areas.iter().sum();
     let mut grower = RegionGrower::new(&norm, &topo)?;
-    let mut components = Vec::with_capacity(clustering.clusters.len());
-    for (id, cluster) in clustering.clusters.iter().enumerate() {
-        let center = harris.keypoints[geodesic_center(&cluster.members, &embedding.points)?];
-        let mut keypoints: Vec<VertexId> = cluster
-            .members
-            .iter()
-            .map(|&i| harris.keypoints[i])
-            .collect();
-        keypoints.sort_unstable();
-        let points: Vec<Point3<f64>> = keypoints
-            .iter()
-            .map(|&v| norm.positions[v as usize])
-            .collect();
-        let sphere: Sphere = min_enclosing_sphere(&points)?;
-        let grown = grower.grow(center, &keypoints, &sphere, params.components.sigma)?;
-        let area_fraction: f64 = grown.faces.iter().map(|&f| face_areas[f as usize]).sum();
-        components.push(KeyComponent {
-            id,
-            center,
-            sphere_center: (sphere.center.coords / scale).into(),
-            sphere_radius: sphere.radius / scale,
-            keypoints,
-            vertices: grown.vertices,
-            faces: grown.faces,
-            area: area_fraction / total,
-            missed_keypoints: grown.missed_keypoints,
-        });
-    }
-    let mut unclustered: Vec<VertexId> = clustering
-        .unassigned
-        .iter()
-        .map(|&i| harris.keypoints[i])
+    let extracted = extract_components(
+        &norm,
+        &mut grower,
+        &harris.keypoints,
+        &embedding.points,
+        &params.components.cluster,
+        params.components.sigma,
+    )?;
+    let t_cluster = extracted.cluster_ms;
+    let components: Vec<KeyComponent> = extracted
+        .components
+        .into_iter()
+        .enumerate()
+        .map(|(id, c)| {
+            let area_fraction: f64 = c.grown.faces.iter().map(|&f| face_areas[f as usize]).sum();
+            KeyComponent {
+                id,
+                center: c.center,
+                sphere_center: (c.sphere.center.coords / scale).into(),
+                sphere_radius: c.sphere.radius / scale,
+                keypoints: c.keypoints,
+                vertices: c.grown.vertices,
+                faces: c.grown.faces,
+                area: area_fraction / total,
+                missed_keypoints: c.grown.missed_keypoints,
+            }
+        })
         .collect();
-    unclustered.sort_unstable();
-    let t_extract = ms(t);
+    let unclustered = extracted.unclustered;
+    let t_extract = (ms(t) - t_cluster).max(0.0);
 
     Ok(Detection {
         area,
@@ -426,6 +417,95 @@ pub fn detect(mesh: &Mesh, params: &DetectParams) -> Result<Detection, DetectErr
             cluster: t_cluster,
             extract: t_extract,
         },
+    })
+}
+
+/// One cluster's key-component, as [`extract_components`] returns it (unit-area units).
+#[derive(Debug, Clone)]
+pub struct ExtractedComponent {
+    /// The geodesic centre (Eq. 2), a keypoint.
+    pub center: VertexId,
+    /// The cluster's keypoints (sorted vertex ids).
+    pub keypoints: Vec<VertexId>,
+    /// The smallest enclosing sphere of the keypoints, on the unit-area mesh.
+    pub sphere: Sphere,
+    /// What region growing (Algorithm 2) reached.
+    pub grown: Component,
+}
+
+/// The result of [`extract_components`].
+#[derive(Debug, Clone)]
+pub struct Extracted {
+    /// One entry per surviving cluster, in cluster order.
+    pub components: Vec<ExtractedComponent>,
+    /// Keypoints in no cluster (sorted vertex ids).
+    pub unclustered: Vec<VertexId>,
+    /// Milliseconds spent in Algorithm 1.
+    pub cluster_ms: f64,
+}
+
+/// Steps 5–6 of the [module docs](self): adaptive clustering of the keypoints' 2-D images
+/// `points` (Algorithm 1), then per cluster its geodesic centre (Eq. 2), the smallest
+/// enclosing sphere of its keypoints and region growing bounded by `sigma` times its radius
+/// (Algorithm 2), on the unit-area mesh `grower` was built on. `keypoints[i]` is the vertex
+/// whose image is `points[i]`.
+///
+/// Errors: invalid parameters, a keypoint that is not a vertex of the mesh, or a point count
+/// other than the keypoint count.
+pub fn extract_components(
+    norm: &Mesh,
+    grower: &mut RegionGrower<'_>,
+    keypoints: &[VertexId],
+    points: &[[f64; 2]],
+    cluster: &ClusterParams,
+    sigma: f64,
+) -> Result<Extracted, ComponentsError> {
+    let n = norm.num_vertices();
+    if points.len() != keypoints.len() {
+        return Err(ComponentsError::IndexOutOfRange {
+            what: "embedded point count",
+            index: points.len(),
+            len: keypoints.len(),
+        });
+    }
+    if let Some(&v) = keypoints.iter().find(|&&v| v as usize >= n) {
+        return Err(ComponentsError::IndexOutOfRange {
+            what: "keypoint vertex",
+            index: v as usize,
+            len: n,
+        });
+    }
+    let t = Instant::now();
+    let clustering = adaptive_clustering(points, cluster)?;
+    let cluster_ms = ms(t);
+    let mut components = Vec::with_capacity(clustering.clusters.len());
+    for c in &clustering.clusters {
+        let center = keypoints[geodesic_center(&c.members, points)?];
+        let mut members: Vec<VertexId> = c.members.iter().map(|&i| keypoints[i]).collect();
+        members.sort_unstable();
+        let positions: Vec<Point3<f64>> = members
+            .iter()
+            .map(|&v| norm.positions[v as usize])
+            .collect();
+        let sphere = min_enclosing_sphere(&positions)?;
+        let grown = grower.grow(center, &members, &sphere, sigma)?;
+        components.push(ExtractedComponent {
+            center,
+            keypoints: members,
+            sphere,
+            grown,
+        });
+    }
+    let mut unclustered: Vec<VertexId> = clustering
+        .unassigned
+        .iter()
+        .map(|&i| keypoints[i])
+        .collect();
+    unclustered.sort_unstable();
+    Ok(Extracted {
+        components,
+        unclustered,
+        cluster_ms,
     })
 }
 

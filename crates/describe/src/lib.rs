@@ -100,7 +100,8 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-pub mod smooth;
+/// Taubin λ|μ smoothing, now in `keycomp_mesh` (re-exported here for existing callers).
+pub use keycomp_mesh::smooth;
 
 /// Version of the descriptor's definition: bumped whenever the same mesh and detection would
 /// give other numbers, so that an index never compares descriptors made two ways (the CLI

@@ -14,6 +14,7 @@ pub mod geometry;
 pub mod io;
 pub mod sample;
 pub mod simplify;
+pub mod smooth;
 pub mod synth;
 mod topology;
 

@@ -1,8 +1,8 @@
 //! Taubin λ|μ smoothing (Taubin, "A signal processing approach to fair surface design",
-//! SIGGRAPH 1995), used to describe components on a copy of the surface with its
-//! high-frequency noise removed (see the crate documentation, *Smoothing*).
+//! SIGGRAPH 1995): a copy of the surface with its high-frequency noise removed, on which
+//! `keycomp_describe` measures its descriptors and, optionally, Harris 3D its responses.
 
-use keycomp_mesh::{Mesh, Point3, Topology};
+use crate::{Mesh, Point3, Topology};
 use rayon::prelude::*;
 
 /// Shrinking step of one λ|μ pair (0 < λ < 1).
@@ -46,7 +46,7 @@ pub fn taubin(mesh: &Mesh, topo: &Topology, iterations: usize) -> Vec<Point3<f64
 #[cfg(test)]
 mod tests {
     use super::*;
-    use keycomp_mesh::synth;
+    use crate::synth;
 
     #[test]
     fn keeps_a_sphere_a_sphere_and_removes_noise() {
