@@ -147,7 +147,7 @@ fn detect_bench(args: DetectBenchArgs) -> Result<ExitCode> {
     writeln!(
         s,
         "preset {}, {threads} threads, median of {runs} runs, times in ms; geodesic: {}\n",
-        args.detect.preset,
+        args.detect.detection_preset(),
         if params.geodesic.proxy_vertices == 0 {
             format!(
                 "full mesh, corners ≥ {}° split",

@@ -1335,7 +1335,7 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
     let text = report_text(
         &results,
         &args,
-        &detect.preset.to_string(),
+        &detect.retrieval_preset().to_string(),
         hits,
         &methods,
         &times,

@@ -48,9 +48,13 @@ pub struct Args {
 /// Detection options shared by the commands that detect key-components.
 #[derive(Debug, Clone, clap::Args)]
 pub struct DetectArgs {
-    /// Preset of Section 4.3: kc1 (R 0.15, T 0.30, N 30), kc2 (N 20), kc3 (R 0.10, T 0.20, N 30).
-    #[arg(long, default_value = "kc1", value_parser = parse_preset)]
-    pub preset: Preset,
+    /// Preset: robust (keycomp's: KC-1's clustering on Harris responses of a smoothed copy,
+    /// 2 % of the vertices as keypoints, spheres from the keypoints' spread; repeats best under
+    /// noise and poses, BENCHMARKS.md section 3), or one of the paper's (Section 4.3): kc1
+    /// (R 0.15, T 0.30, N 30), kc2 (N 20), kc3 (R 0.10, T 0.20, N 30). Default: robust for
+    /// `detect`, `render` and `bench detect`; kc1 for `index add`, `query` and `match`.
+    #[arg(long, value_parser = parse_preset)]
+    pub preset: Option<Preset>,
     #[command(flatten)]
     pub harris: HarrisArgs,
     /// Intra-cluster distance R (geodesic, on the mesh scaled to unit area).
@@ -146,7 +150,7 @@ fn parse_init(s: &str) -> Result<bool, String> {
 
 fn parse_preset(s: &str) -> Result<Preset, String> {
     s.parse::<Preset>()
-        .map_err(|_| format!("unknown preset '{s}' (kc1, kc2 or kc3)"))
+        .map_err(|_| format!("unknown preset '{s}' (robust, kc1, kc2 or kc3)"))
 }
 
 impl DetectArgs {
@@ -161,10 +165,26 @@ impl DetectArgs {
             .is_ok_and(|b| b.detect.retrieval_params() == self.retrieval_params())
     }
 
-    /// The options as the library takes them.
+    /// The preset of the detection commands (`detect`, `render`, `bench detect`): the one
+    /// given, else the robust preset.
+    pub fn detection_preset(&self) -> Preset {
+        self.preset.unwrap_or(Preset::Robust)
+    }
+
+    /// The preset of the retrieval commands: the one given, else KC-1.
+    pub fn retrieval_preset(&self) -> Preset {
+        self.preset.unwrap_or(Preset::Kc1)
+    }
+
+    /// The options as the library takes them, with the retrieval commands' preset.
     pub fn options(&self) -> DetectOptions {
+        self.options_with(self.retrieval_preset())
+    }
+
+    /// The options as the library takes them, with `preset`.
+    fn options_with(&self, preset: Preset) -> DetectOptions {
         DetectOptions {
-            preset: self.preset,
+            preset,
             fraction: self.harris.fraction,
             count: self.harris.count,
             rings: self.harris.rings,
@@ -190,10 +210,11 @@ impl DetectArgs {
         (!self.is_default()).then(|| self.retrieval_params())
     }
 
-    /// The parameters: the preset, then each explicit option on top
+    /// The parameters of the detection commands: their preset
+    /// ([`DetectArgs::detection_preset`]), then each explicit option on top
     /// ([`DetectOptions::params`]).
     pub fn params(&self) -> DetectParams {
-        self.options().params()
+        self.options_with(self.detection_preset()).params()
     }
 }
 
@@ -283,7 +304,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
                 mesh,
                 &det,
                 &params,
-                args.detect.preset,
+                args.detect.detection_preset(),
                 args.method.name(),
             )
         })?;
@@ -314,7 +335,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
             writeln!(
                 s,
                 "preset {} (R {}, T {}, N {}, σ {}, seed {}): {} keypoints, {} in no cluster",
-                args.detect.preset,
+                args.detect.detection_preset(),
                 cp.cluster.r,
                 cp.cluster.t,
                 cp.cluster.n_min,

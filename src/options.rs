@@ -13,7 +13,8 @@ pub const RETRIEVAL_N_REFERENCE: usize = 250;
 /// `None` keeps the preset's (or the default) value.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct DetectOptions {
-    /// KC-1 (R 0.15, T 0.30, N 30), KC-2 (N 20) or KC-3 (R 0.10, T 0.20, N 30).
+    /// KC-1 (R 0.15, T 0.30, N 30), KC-2 (N 20), KC-3 (R 0.10, T 0.20, N 30), or the robust
+    /// preset (KC-1's clustering on smoothed responses, 2 % keypoints, spread spheres).
     pub preset: Preset,
     /// Keep this fraction of the vertices as keypoints (default 0.01).
     pub fraction: Option<f64>,
@@ -69,10 +70,11 @@ impl DetectOptions {
         base
     }
 
-    /// The detection parameters (what `keycomp detect` uses): the preset, then each option.
+    /// The detection parameters (what `keycomp detect` uses): the preset (its Harris part
+    /// included, [`Preset::harris_params`]), then each option.
     pub fn params(&self) -> DetectParams {
         let mut p = DetectParams {
-            harris: self.harris(HarrisParams::default()),
+            harris: self.harris(self.preset.harris_params()),
             components: self.preset.component_params(),
             geodesic: self.geodesic(),
         };

@@ -62,7 +62,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
-use keycomp_components::{ClusterParams, GeodesicOptions, SmacofParams};
+use keycomp_components::{ClusterParams, GeodesicOptions, SmacofParams, SphereRule};
 use keycomp_harris::{HarrisParams, Selection};
 use keycomp_mesh::geometry::vertex_areas;
 use keycomp_mesh::{Format, Mesh, Topology, VertexId, read_mesh};
@@ -299,10 +299,12 @@ impl Budget {
     pub fn describe(&self) -> String {
         match *self {
             Budget::PerShape(Selection::Fraction(f)) => {
-                format!(
-                    "{} % of each shape's own vertices (the paper's rule)",
-                    f * 100.0
-                )
+                let rule = if f == 0.01 {
+                    "the paper's rule"
+                } else {
+                    "the paper's rule takes 1 %"
+                };
+                format!("{} % of each shape's own vertices ({rule})", f * 100.0)
             }
             Budget::PerShape(Selection::Count(n)) => {
                 format!("{n} keypoints on every shape (fixed count per unit normalised area)")
@@ -346,6 +348,9 @@ pub struct PresetSpec {
     pub cluster: ClusterParams,
     /// Region-growing factor σ.
     pub sigma: f64,
+    /// The sphere that σ scales (the paper's enclosing sphere, or the robust preset's spread
+    /// sphere).
+    pub sphere: SphereRule,
 }
 
 impl PresetSpec {
@@ -362,6 +367,7 @@ impl PresetSpec {
             method,
             cluster: ClusterParams::default(),
             sigma: 0.0,
+            sphere: SphereRule::Enclosing,
         })
     }
 }
@@ -723,7 +729,7 @@ impl Config {
         for p in &self.presets {
             let comps = match (p.method, &embedded, &extractor, &mser, &vertex_area) {
                 (Method::Kc, Some(e), Some(x), _, _) => x
-                    .components(e, &p.cluster, p.sigma)
+                    .components(e, &p.cluster, p.sigma, p.sphere)
                     .map_err(|e| format!("{}: component extraction failed: {e}", p.name))?,
                 (Method::Mser, _, _, Some(m), _) => m.components.clone(),
                 (Method::MserKc, _, _, Some(m), Some(va)) => {
@@ -1011,7 +1017,11 @@ fn preset_report(
         repeatability_at_0_8,
         component_counts,
         curves,
-        paper: paper_table(spec.name.trim_end_matches('*')),
+        // the robust preset is KC-1's clustering, so it is read beside the paper's KC-1
+        paper: paper_table(match spec.name.trim_end_matches('*') {
+            "robust" => "KC-1",
+            name => name,
+        }),
     }
 }
 
@@ -1053,10 +1063,20 @@ impl Report {
     /// weights, times, eigenpairs and stability parameters for the MSER methods.
     pub fn preset_parameters(&self, p: &PresetSpec) -> String {
         match p.method {
-            Method::Kc => format!(
-                "R {}, T {}, N {}, σ {}",
-                p.cluster.r, p.cluster.t, p.cluster.n_min, p.sigma
-            ),
+            Method::Kc => {
+                let sphere = match p.sphere {
+                    SphereRule::Enclosing => String::new(),
+                    SphereRule::Spread { factor } => format!(", spread sphere ×{factor}"),
+                };
+                let smoothing = match self.harris.smoothing_iterations {
+                    0 => String::new(),
+                    n => format!(", Harris after {n} Taubin pairs"),
+                };
+                format!(
+                    "R {}, T {}, N {}, σ {}{sphere}{smoothing}",
+                    p.cluster.r, p.cluster.t, p.cluster.n_min, p.sigma
+                )
+            }
             Method::Mser | Method::MserKc => {
                 let m = &self.mser;
                 format!(

@@ -17,7 +17,7 @@
 
 use keycomp_components::{
     ClusterParams, ComponentParams, ComponentsError, DetectError, DetectParams, GeodesicOptions,
-    RegionGrower, SmacofParams, detect, extract_components,
+    RegionGrower, SmacofParams, SphereRule, detect, extract_components,
 };
 use keycomp_harris::HarrisParams;
 use keycomp_mesh::{Mesh, Topology, VertexId, geometry};
@@ -70,8 +70,8 @@ impl Extractor {
         Extractor { norm, topo }
     }
 
-    /// The vertex sets (sorted ids) of the key-components that `cluster` and `sigma` give on
-    /// `embedded`, in cluster order.
+    /// The vertex sets (sorted ids) of the key-components that `cluster`, `sigma` and the
+    /// growing sphere's rule give on `embedded`, in cluster order.
     ///
     /// Errors: invalid parameters, or an embedding whose keypoints are not vertices of this
     /// mesh or whose point count differs from its keypoint count.
@@ -80,6 +80,7 @@ impl Extractor {
         embedded: &Embedded,
         cluster: &ClusterParams,
         sigma: f64,
+        sphere: SphereRule,
     ) -> Result<Vec<Vec<VertexId>>, ComponentsError> {
         let mut grower = RegionGrower::new(&self.norm, &self.topo)?;
         let extracted = extract_components(
@@ -89,6 +90,7 @@ impl Extractor {
             &embedded.points,
             cluster,
             sigma,
+            sphere,
         )?;
         let out = extracted
             .components

@@ -32,4 +32,4 @@ pub use pipeline::{
     KeyComponent, Timings, detect, extract_components, keypoint_distances,
 };
 pub use smacof::{Embedding, SmacofParams, smacof};
-pub use sphere::{Sphere, min_enclosing_sphere};
+pub use sphere::{Sphere, SphereRule, min_enclosing_sphere, spread_sphere};

@@ -77,7 +77,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::{
     ClusterParams, Component, ComponentParams, ComponentsError, Embedding, RegionGrower, Sphere,
-    adaptive_clustering, geodesic_center, min_enclosing_sphere, smacof,
+    SphereRule, adaptive_clustering, geodesic_center, smacof,
 };
 
 /// All parameters of detection: the keypoint detector, the components stage and the geodesic
@@ -375,6 +375,7 @@ pub fn detect(mesh: &Mesh, params: &DetectParams) -> Result<Detection, DetectErr
         &embedding.points,
         &params.components.cluster,
         params.components.sigma,
+        params.components.sphere,
     )?;
     let t_cluster = extracted.cluster_ms;
     let components: Vec<KeyComponent> = extracted
@@ -427,7 +428,8 @@ pub struct ExtractedComponent {
     pub center: VertexId,
     /// The cluster's keypoints (sorted vertex ids).
     pub keypoints: Vec<VertexId>,
-    /// The smallest enclosing sphere of the keypoints, on the unit-area mesh.
+    /// The sphere of the keypoints that bounded growing (see [`SphereRule`]), on the
+    /// unit-area mesh.
     pub sphere: Sphere,
     /// What region growing (Algorithm 2) reached.
     pub grown: Component,
@@ -445,8 +447,9 @@ pub struct Extracted {
 }
 
 /// Steps 5–6 of the [module docs](self): adaptive clustering of the keypoints' 2-D images
-/// `points` (Algorithm 1), then per cluster its geodesic centre (Eq. 2), the smallest
-/// enclosing sphere of its keypoints and region growing bounded by `sigma` times its radius
+/// `points` (Algorithm 1), then per cluster its geodesic centre (Eq. 2), the sphere of its
+/// keypoints that `sphere` names (the paper's smallest enclosing one, or
+/// [`SphereRule::Spread`]) and region growing bounded by `sigma` times its radius
 /// (Algorithm 2), on the unit-area mesh `grower` was built on. `keypoints[i]` is the vertex
 /// whose image is `points[i]`.
 ///
@@ -459,7 +462,9 @@ pub fn extract_components(
     points: &[[f64; 2]],
     cluster: &ClusterParams,
     sigma: f64,
+    sphere: SphereRule,
 ) -> Result<Extracted, ComponentsError> {
+    sphere.validate()?;
     let n = norm.num_vertices();
     if points.len() != keypoints.len() {
         return Err(ComponentsError::IndexOutOfRange {
@@ -487,12 +492,12 @@ pub fn extract_components(
             .iter()
             .map(|&v| norm.positions[v as usize])
             .collect();
-        let sphere = min_enclosing_sphere(&positions)?;
-        let grown = grower.grow(center, &members, &sphere, sigma)?;
+        let bound = sphere.sphere(&positions)?;
+        let grown = grower.grow(center, &members, &bound, sigma)?;
         components.push(ExtractedComponent {
             center,
             keypoints: members,
-            sphere,
+            sphere: bound,
             grown,
         });
     }

@@ -34,7 +34,87 @@ use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 
+use serde::{Deserialize, Serialize};
+
 use crate::ComponentsError;
+
+/// Which sphere `(o, r)` bounds a cluster's region growing (Algorithm 2 grows inside `σ·r`
+/// of `o`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub enum SphereRule {
+    /// The smallest sphere containing every keypoint of the cluster
+    /// ([`min_enclosing_sphere`]), as in the paper (Section 3.3). Its radius is set by the two
+    /// to four outermost keypoints, so one keypoint more or less at the cluster's edge changes
+    /// the component's extent. Default.
+    #[default]
+    Enclosing,
+    /// Centred at the keypoints' mean, radius `factor` times their root-mean-square distance
+    /// from it ([`spread_sphere`]). Every keypoint weighs the same, so the radius moves little
+    /// when one keypoint at the edge comes or goes. Not in the paper: the robust preset's
+    /// choice ([`crate::Preset::Robust`]), with factor 1.2. `factor` must be finite and > 0.
+    Spread {
+        /// Radius over the RMS distance (unitless, > 0). For keypoints spread evenly over a
+        /// flat disc of radius ρ the RMS distance is ρ/√2, so √2 ≈ 1.41 gives the disc back;
+        /// lowering it tightens components around their densest part.
+        factor: f64,
+    },
+}
+
+impl SphereRule {
+    /// Checks `factor` of [`SphereRule::Spread`].
+    pub fn validate(&self) -> Result<(), ComponentsError> {
+        if let SphereRule::Spread { factor } = *self
+            && !(factor.is_finite() && factor > 0.0)
+        {
+            return Err(ComponentsError::param(
+                "sphere.factor",
+                factor,
+                "must be a finite number > 0, e.g. 1.2",
+            ));
+        }
+        Ok(())
+    }
+
+    /// The sphere of `points` under this rule.
+    ///
+    /// Errors: an empty set, or a non-finite coordinate.
+    pub fn sphere(&self, points: &[Point3<f64>]) -> Result<Sphere, ComponentsError> {
+        match *self {
+            SphereRule::Enclosing => min_enclosing_sphere(points),
+            SphereRule::Spread { factor } => spread_sphere(points, factor),
+        }
+    }
+}
+
+/// The sphere centred at the mean of `points` whose radius is `factor` times their
+/// root-mean-square distance from it ([`SphereRule::Spread`]). O(n).
+///
+/// Errors: an empty set, or a non-finite coordinate.
+pub fn spread_sphere(points: &[Point3<f64>], factor: f64) -> Result<Sphere, ComponentsError> {
+    if points.is_empty() {
+        return Err(ComponentsError::Empty { what: "point set" });
+    }
+    if let Some(index) = points
+        .iter()
+        .position(|p| !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()))
+    {
+        return Err(ComponentsError::NonFinitePoint {
+            what: "sphere point",
+            index,
+        });
+    }
+    let n = points.len() as f64;
+    let mean = points.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / n;
+    let ms = points
+        .iter()
+        .map(|p| (p.coords - mean).norm_squared())
+        .sum::<f64>()
+        / n;
+    Ok(Sphere {
+        center: Point3::from(mean),
+        radius: factor * ms.sqrt(),
+    })
+}
 
 /// A sphere: centre and radius.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -4,6 +4,10 @@
 //! Per vertex v, on the mesh scaled to unit surface area (so responses and keypoints do not
 //! depend on the mesh's units, position or orientation):
 //!
+//! 0. **Smoothing** (optional, off by default; not in the paper): with
+//!    [`HarrisParams::smoothing_iterations`] = n > 0, steps 1–5 run on a copy of the mesh
+//!    smoothed by n Taubin λ|μ pairs (`keycomp_mesh::smooth`), so that noise of a few edge
+//!    lengths does not make responses of its own. Selection (step 6) is on the same vertices.
 //! 1. **Neighbourhood.** Whole rings around v, breadth first. Adaptive (default): grow until the
 //!    last ring's longest edge path from v exceeds `0.01 × diagonal`, where the diagonal is the
 //!    rotation-invariant [`moment_diagonal`] by default or, as in the authors' code, the
@@ -47,6 +51,8 @@ mod response;
 mod select;
 mod size;
 
+use std::borrow::Cow;
+
 use keycomp_mesh::{Mesh, Topology, VertexId};
 
 pub use fit::{fit_quadratic, response_from_coefficients};
@@ -77,8 +83,9 @@ pub fn harris_response(mesh: &Mesh, topo: &Topology, params: &HarrisParams) -> V
     if topo.num_vertices() != n {
         return vec![f64::NAN; n];
     }
-    let edges = response::edge_lengths(mesh, topo, params);
-    match response::Context::new(mesh, topo, params, &edges) {
+    let mesh = smoothed(mesh, topo, params);
+    let edges = response::edge_lengths(&mesh, topo, params);
+    match response::Context::new(&mesh, topo, params, &edges) {
         Some(ctx) => response::all_responses(&ctx),
         None => vec![f64::NAN; n],
     }
@@ -94,8 +101,9 @@ pub fn local_fits(mesh: &Mesh, topo: &Topology, params: &HarrisParams) -> Vec<Op
     if topo.num_vertices() != n {
         return vec![None; n];
     }
-    let edges = response::edge_lengths(mesh, topo, params);
-    match response::Context::new(mesh, topo, params, &edges) {
+    let mesh = smoothed(mesh, topo, params);
+    let edges = response::edge_lengths(&mesh, topo, params);
+    match response::Context::new(&mesh, topo, params, &edges) {
         Some(ctx) => response::all_fits(&ctx),
         None => vec![None; n],
     }
@@ -113,10 +121,27 @@ pub fn local_fit(
     if topo.num_vertices() != mesh.num_vertices() || v as usize >= mesh.num_vertices() {
         return None;
     }
-    let edges = response::edge_lengths(mesh, topo, params);
-    let ctx = response::Context::new(mesh, topo, params, &edges)?;
+    let mesh = smoothed(mesh, topo, params);
+    let edges = response::edge_lengths(&mesh, topo, params);
+    let ctx = response::Context::new(&mesh, topo, params, &edges)?;
     let mut s = response::Scratch::new(mesh.num_vertices());
     response::local_fit_with(&ctx, v, &mut s)
+}
+
+/// The mesh the responses are computed on: `mesh` itself, or with
+/// [`HarrisParams::smoothing_iterations`] > 0 a copy smoothed by that many Taubin λ|μ pairs
+/// (boundary vertices included). The topology is the same either way.
+fn smoothed<'m>(mesh: &'m Mesh, topo: &Topology, params: &HarrisParams) -> Cow<'m, Mesh> {
+    let n = params
+        .smoothing_iterations
+        .min(HarrisParams::MAX_SMOOTHING_ITERATIONS);
+    if n == 0 {
+        return Cow::Borrowed(mesh);
+    }
+    Cow::Owned(Mesh {
+        positions: keycomp_mesh::smooth::taubin_with(mesh, topo, n, false),
+        faces: mesh.faces.clone(),
+    })
 }
 
 /// Validates `params`, computes every response and selects the keypoints.

@@ -14,10 +14,23 @@ pub const MU: f64 = -0.53;
 /// vertices stay where they are, so holes and cut rims do not shrink. Returns the smoothed
 /// positions; the connectivity is that of `mesh`.
 pub fn taubin(mesh: &Mesh, topo: &Topology, iterations: usize) -> Vec<Point3<f64>> {
+    taubin_with(mesh, topo, iterations, true)
+}
+
+/// [`taubin`], with boundary vertices either fixed (`fix_boundary`, as [`taubin`] does) or
+/// smoothed like the others, towards the mean of their neighbours. Smoothing the boundary
+/// keeps the rims of small holes from standing out of a smoothed surface as ridges (which
+/// Harris 3D would take for features); large holes shrink a little.
+pub fn taubin_with(
+    mesh: &Mesh,
+    topo: &Topology,
+    iterations: usize,
+    fix_boundary: bool,
+) -> Vec<Point3<f64>> {
     let mut p = mesh.positions.clone();
     let mut next = p.clone();
     let fixed: Vec<bool> = (0..p.len() as u32)
-        .map(|v| topo.neighbors(v).is_empty() || topo.is_boundary(v))
+        .map(|v| topo.neighbors(v).is_empty() || (fix_boundary && topo.is_boundary(v)))
         .collect();
     for _ in 0..iterations {
         for step in [LAMBDA, MU] {
