@@ -15,7 +15,7 @@ use keycomp_bench::experiment::{
     Budget, Config, ISOMETRY, PresetSpec, Progress, Report, RunStats, discover, run,
 };
 use keycomp_bench::svg::{Curve, repeatability_svg};
-use keycomp_components::{Preset, SmacofParams};
+use keycomp_components::{Preset, SmacofParams, SphereRule};
 use keycomp_harris::{HarrisParams, Selection};
 use keycomp_mser::Method;
 use keycomp_mser::MserParams;
@@ -65,8 +65,8 @@ pub struct Args {
     #[command(flatten)]
     pub harris: HarrisArgs,
     /// Tessellation-independent keypoint budget: the null shape and every shape made from it
-    /// get 1 % of the null shape's vertex count (a fixed count per unit of normalised area)
-    /// instead of 1 % of their own.
+    /// get the preset's fraction (1 %, robust's 2 %) of the null shape's vertex count (a fixed
+    /// count per unit of normalised area) instead of that fraction of their own.
     #[arg(long, conflicts_with_all = ["fraction", "count"])]
     pub tessellation_independent: bool,
     /// Override R of every preset (marks it with *).
@@ -81,6 +81,15 @@ pub struct Args {
     /// Override σ of every preset.
     #[arg(long, value_name = "S")]
     pub sigma: Option<f64>,
+    /// Override the sphere that σ scales: `enclosing` (the smallest sphere containing the
+    /// cluster's keypoints, the paper's) or `spread:F` (centred at their mean, F times their
+    /// RMS distance from it; the robust preset's is spread:1.2).
+    #[arg(long, value_name = "RULE", value_parser = parse_sphere)]
+    pub sphere: Option<SphereRule>,
+    /// Override the Taubin λ|μ pairs smoothing the copy Harris 3D runs on (the robust
+    /// preset's 30, the paper's 0), at most 1000.
+    #[arg(long, value_name = "N")]
+    pub smoothing: Option<usize>,
     /// Transformations, comma-separated: isometry, holes, microholes, noise, shotnoise, scale,
     /// localscale, topology, sampling [default: all].
     #[arg(long, value_delimiter = ',', value_parser = parse_kind, value_name = "KINDS")]
@@ -130,6 +139,22 @@ fn parse_presets(s: &str) -> Result<PresetChoice, String> {
         .map_err(|_| format!("unknown preset '{s}' (robust, kc1, kc2, kc3 or all)"))
 }
 
+fn parse_sphere(s: &str) -> Result<SphereRule, String> {
+    let bad = || {
+        format!("unknown sphere rule '{s}' (enclosing, or spread:F with F > 0, e.g. spread:1.2)")
+    };
+    if s.eq_ignore_ascii_case("enclosing") {
+        return Ok(SphereRule::Enclosing);
+    }
+    let factor: f64 = s
+        .strip_prefix("spread:")
+        .and_then(|f| f.parse().ok())
+        .ok_or_else(bad)?;
+    let rule = SphereRule::Spread { factor };
+    rule.validate().map_err(|_| bad())?;
+    Ok(rule)
+}
+
 /// A transformation chosen with `--kinds`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum KindChoice {
@@ -153,8 +178,12 @@ fn parse_kind(s: &str) -> Result<KindChoice, String> {
 
 impl Args {
     fn config(&self, cache: Option<EmbeddingCache>) -> Config {
-        let modified =
-            self.r.is_some() || self.t.is_some() || self.n.is_some() || self.sigma.is_some();
+        let modified = self.r.is_some()
+            || self.t.is_some()
+            || self.n.is_some()
+            || self.sigma.is_some()
+            || self.sphere.is_some()
+            || self.smoothing.is_some();
         let mut methods = self.method.clone();
         methods.dedup();
         let kc = methods.contains(&Method::Kc);
@@ -180,7 +209,7 @@ impl Args {
                     method: Method::Kc,
                     cluster,
                     sigma: self.sigma.unwrap_or(c.sigma),
-                    sphere: c.sphere,
+                    sphere: self.sphere.unwrap_or(c.sphere),
                 }
             })
             .collect();
@@ -195,7 +224,14 @@ impl Args {
             Some(p) if kc => p.harris_params(),
             _ => HarrisParams::default(),
         };
-        let harris = self.harris.params(base);
+        let mut harris = self.harris.params(base);
+        if let Some(n) = self.smoothing {
+            harris.smoothing_iterations = n;
+        }
+        let base_smacof = match self.preset.0.first() {
+            Some(p) if kc => p.component_params().smacof,
+            _ => SmacofParams::default(),
+        };
         let budget = if self.tessellation_independent {
             Budget::NullCalibrated(match base.selection {
                 Selection::Fraction(f) => f,
@@ -232,7 +268,7 @@ impl Args {
                 seed: Some(self.smacof_seed),
                 ..self.speed.options()
             }
-            .smacof(SmacofParams::default()),
+            .smacof(base_smacof),
             geodesic: self.speed.options().geodesic(),
             mser: MserParams::default(),
             kinds,

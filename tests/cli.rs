@@ -34,7 +34,7 @@ fn detect_json_has_the_documented_shape_and_is_deterministic() {
     let dir = tempfile::tempdir().expect("tempdir");
     let path = textured_off(dir.path());
     let p = path.to_str().expect("utf8");
-    let o = keycomp(&["detect", p, "--json", "--seed", "7"]);
+    let o = keycomp(&["detect", p, "--json", "--seed", "7", "--preset", "kc1"]);
     assert!(o.status.success(), "stderr: {}", stderr(&o));
     let v: Value = serde_json::from_slice(&o.stdout).expect("valid JSON");
     for key in [
@@ -81,12 +81,46 @@ fn detect_json_has_the_documented_shape_and_is_deterministic() {
         assert!(!ids("faces").is_empty());
     }
     // same input and seed: byte-identical JSON apart from the timings
-    let again = keycomp(&["detect", p, "--json", "--seed", "7"]);
+    let again = keycomp(&["detect", p, "--json", "--seed", "7", "--preset", "kc1"]);
     let w: Value = serde_json::from_slice(&again.stdout).expect("valid JSON");
     assert_eq!(
         serde_json::to_string(&without_timings(v)).expect("json"),
         serde_json::to_string(&without_timings(w)).expect("json")
     );
+}
+
+#[test]
+fn detect_defaults_to_the_robust_preset() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = textured_off(dir.path());
+    let p = path.to_str().expect("utf8");
+    let o = keycomp(&["detect", p, "--json"]);
+    assert!(o.status.success(), "stderr: {}", stderr(&o));
+    let v: Value = serde_json::from_slice(&o.stdout).expect("valid JSON");
+    assert_eq!(v["preset"], "robust");
+    assert_eq!(v["params"]["harris"]["smoothing_iterations"], 30);
+    assert_eq!(v["params"]["harris"]["selection"]["Fraction"], 0.02);
+    assert_eq!(v["params"]["components"]["sphere"]["Spread"]["factor"], 1.2);
+    let kc1 = keycomp(&["detect", p, "--json", "--preset", "kc1"]);
+    let w: Value = serde_json::from_slice(&kc1.stdout).expect("valid JSON");
+    assert_eq!(w["params"]["harris"]["smoothing_iterations"], 0);
+    assert_eq!(w["params"]["components"]["sphere"], "Enclosing");
+    // about twice the keypoints of the paper's 1 % (each count is rounded on its own)
+    let n = |v: &Value| v["keypoints"].as_array().expect("keypoints").len() as i64;
+    assert!((n(&v) - 2 * n(&w)).abs() <= 1, "{} vs {}", n(&v), n(&w));
+    // the protrusions are found by the robust preset too: every component's centre is a
+    // keypoint inside it
+    let comps = v["components"].as_array().expect("components");
+    assert!(!comps.is_empty());
+    for c in comps {
+        let verts: Vec<u64> = c["vertices"]
+            .as_array()
+            .expect("vertices")
+            .iter()
+            .map(|x| x.as_u64().expect("id"))
+            .collect();
+        assert!(verts.contains(&c["center"].as_u64().expect("center")));
+    }
 }
 
 #[test]

@@ -266,6 +266,8 @@ fn bench_repeatability_on_a_tiny_folder_writes_sane_json_and_svg() {
         "repeatability",
         "--data",
         s(&data),
+        "--preset",
+        "all",
         "--kinds",
         "noise,scale",
         "--strengths",
@@ -353,6 +355,48 @@ fn bench_repeatability_on_a_tiny_folder_writes_sane_json_and_svg() {
 }
 
 #[test]
+fn bench_repeatability_runs_the_robust_preset_by_default() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let data = tiny_data(dir.path());
+    let out = dir.path().join("out");
+    let o = keycomp(&[
+        "bench",
+        "repeatability",
+        "--data",
+        s(&data),
+        "--kinds",
+        "scale",
+        "--strengths",
+        "1",
+        "--n",
+        "8",
+        "--out",
+        s(&out),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    // read beside the paper's KC-1, whose clustering it keeps
+    assert!(text.contains("### robust*"), "{text}");
+    assert!(text.contains("spread sphere ×1.2"), "{text}");
+    assert!(text.contains("Harris after 30 Taubin pairs"), "{text}");
+    assert!(text.contains("Keypoint budget: 2 %"), "{text}");
+    assert!(text.contains("Table 1)"), "{text}");
+    let results: Value =
+        serde_json::from_slice(&fs::read(out.join("results.json")).expect("results.json"))
+            .expect("valid JSON");
+    let presets = results["presets"].as_array().expect("presets");
+    assert_eq!(presets.len(), 1);
+    assert_eq!(presets[0]["preset"]["name"], "robust*");
+    assert_eq!(results["harris"]["smoothing_iterations"], 30);
+    assert_eq!(results["smacof"]["starts"], 1);
+    // a uniform scaling changes nothing: the robust components repeat exactly
+    let scale = presets[0]["mean_overlap"]["rows"][0]["values"][0]
+        .as_f64()
+        .expect("scale 1 has components");
+    assert!(scale > 0.99, "scale overlap {scale}");
+}
+
+#[test]
 fn bench_repeatability_bad_arguments_exit_2() {
     let dir = tempfile::tempdir().expect("tempdir");
     let data = tiny_data(dir.path());
@@ -374,6 +418,12 @@ fn bench_repeatability_bad_arguments_exit_2() {
             "--count",
         ),
         (vec!["--data", s(&data), "--r", "0.5"], "cluster"),
+        (
+            vec!["--data", s(&data), "--smoothing", "5000"],
+            "smoothing_iterations",
+        ),
+        (vec!["--data", s(&data), "--sphere", "spread:0"], "spread:0"),
+        (vec!["--data", s(&data), "--sphere", "ball"], "ball"),
     ];
     for (extra, needle) in cases {
         let mut args = vec!["bench", "repeatability", "--out", s(&out)];

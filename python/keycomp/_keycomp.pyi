@@ -46,7 +46,7 @@ def detect(
     mesh: MeshLike,
     faces: Optional[npt.ArrayLike] = None,
     *,
-    preset: str = "kc1",
+    preset: str = "robust",
     fraction: Optional[float] = None,
     count: Optional[int] = None,
     r: Optional[float] = None,

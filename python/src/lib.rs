@@ -240,9 +240,10 @@ impl DetectionResult {
 }
 
 /// Detects key-components (Sipiran & Bustos 2013) with the parameters of `keycomp detect`:
-/// a preset ("kc1", "kc2", "kc3"), then the options given on top.
+/// a preset ("robust", the default, or the paper's "kc1", "kc2", "kc3"), then the options
+/// given on top.
 #[pyfunction]
-#[pyo3(signature = (mesh, faces=None, *, preset="kc1", fraction=None, count=None, r=None, t=None, n=None, sigma=None, seed=None))]
+#[pyo3(signature = (mesh, faces=None, *, preset="robust", fraction=None, count=None, r=None, t=None, n=None, sigma=None, seed=None))]
 #[allow(clippy::too_many_arguments)]
 fn detect(
     py: Python<'_>,
@@ -258,7 +259,9 @@ fn detect(
     seed: Option<u64>,
 ) -> PyResult<DetectionResult> {
     let preset: Preset = preset.parse().map_err(|_| {
-        PyValueError::new_err(format!("unknown preset '{preset}' (kc1, kc2 or kc3)"))
+        PyValueError::new_err(format!(
+            "unknown preset '{preset}' (robust, kc1, kc2 or kc3)"
+        ))
     })?;
     let options = DetectOptions {
         preset,

@@ -328,6 +328,70 @@ mod tests {
         Point3::new(x, y, z)
     }
 
+    #[test]
+    fn spread_sphere_of_a_circle_is_the_circle_scaled() {
+        // 12 points evenly on a circle of radius 2 about (1, -2, 0.5) in a tilted plane: the
+        // mean is the centre and every point is 2 from it, so the RMS distance is 2
+        let (c, rho) = (Vector3::new(1.0, -2.0, 0.5), 2.0);
+        let (u, v) = (
+            Vector3::new(1.0, 1.0, 0.0).normalize(),
+            Vector3::new(-1.0, 1.0, 1.0).normalize(),
+        );
+        let pts: Vec<Point3<f64>> = (0..12)
+            .map(|i| {
+                let a = i as f64 * std::f64::consts::TAU / 12.0;
+                Point3::from(c + rho * (a.cos() * u + a.sin() * v))
+            })
+            .collect();
+        for factor in [0.5, 1.2, std::f64::consts::SQRT_2] {
+            let s = spread_sphere(&pts, factor).unwrap();
+            assert!((s.center.coords - c).norm() < 1e-12, "{s:?}");
+            assert!((s.radius - factor * rho).abs() < 1e-12, "{s:?}");
+            assert_eq!(SphereRule::Spread { factor }.sphere(&pts).unwrap(), s);
+        }
+        // the enclosing rule is Welzl's sphere
+        assert_eq!(
+            SphereRule::Enclosing.sphere(&pts).unwrap(),
+            min_enclosing_sphere(&pts).unwrap()
+        );
+    }
+
+    #[test]
+    fn spread_sphere_weighs_every_point_alike() {
+        // one outlier moves the enclosing sphere's radius by half its distance, the spread
+        // sphere's by much less
+        let mut pts: Vec<Point3<f64>> = (0..30)
+            .map(|i| {
+                let a = i as f64 * std::f64::consts::TAU / 30.0;
+                p(a.cos(), a.sin(), 0.0)
+            })
+            .collect();
+        let before = (
+            min_enclosing_sphere(&pts).unwrap().radius,
+            spread_sphere(&pts, 1.0).unwrap().radius,
+        );
+        pts.push(p(2.0, 0.0, 0.0));
+        let after = (
+            min_enclosing_sphere(&pts).unwrap().radius,
+            spread_sphere(&pts, 1.0).unwrap().radius,
+        );
+        assert!(after.0 / before.0 > 1.4, "{before:?} {after:?}");
+        assert!(after.1 / before.1 < 1.1, "{before:?} {after:?}");
+    }
+
+    #[test]
+    fn spread_sphere_edge_cases() {
+        assert!(spread_sphere(&[], 1.2).is_err());
+        assert!(spread_sphere(&[p(f64::NAN, 0.0, 0.0)], 1.2).is_err());
+        let one = spread_sphere(&[p(1.0, 2.0, 3.0), p(1.0, 2.0, 3.0)], 1.2).unwrap();
+        assert_eq!(one.center, p(1.0, 2.0, 3.0));
+        assert_eq!(one.radius, 0.0);
+        assert!(SphereRule::Spread { factor: 0.0 }.validate().is_err());
+        assert!(SphereRule::Spread { factor: f64::NAN }.validate().is_err());
+        assert!(SphereRule::Spread { factor: 1.2 }.validate().is_ok());
+        assert!(SphereRule::Enclosing.validate().is_ok());
+    }
+
     /// Brute force: the centre of the smallest enclosing sphere is the centre of the sphere
     /// through its 1–4 support points, so the smallest "farthest-point distance" over the
     /// centres of all spheres through 1–4 of the points is the answer (solved independently

@@ -280,6 +280,10 @@ mod tests {
                 ..d
             },
             HarrisParams {
+                smoothing_iterations: HarrisParams::MAX_SMOOTHING_ITERATIONS + 1,
+                ..d
+            },
+            HarrisParams {
                 neighborhood: Neighborhood::Adaptive {
                     radius_fraction: f64::NAN,
                 },

@@ -91,6 +91,23 @@ mod tests {
     }
 
     #[test]
+    fn a_free_boundary_is_smoothed_too() {
+        // a grid with a wavy rim: fixed, the rim keeps its waves; free, they flatten
+        let mut grid = synth::grid(12, 12, 1.0);
+        let topo = Topology::new(&grid);
+        let rim = topo.boundary_vertices();
+        for (i, &v) in rim.iter().enumerate() {
+            grid.positions[v as usize].z = if i % 2 == 0 { 0.05 } else { -0.05 };
+        }
+        let wave = |p: &[Point3<f64>]| rim.iter().map(|&v| p[v as usize].z.abs()).sum::<f64>();
+        let fixed = taubin_with(&grid, &topo, 10, true);
+        let free = taubin_with(&grid, &topo, 10, false);
+        assert_eq!(fixed, taubin(&grid, &topo, 10));
+        assert_eq!(wave(&fixed), wave(&grid.positions));
+        assert!(wave(&free) < 0.5 * wave(&grid.positions));
+    }
+
+    #[test]
     fn boundary_vertices_stay() {
         let grid = synth::grid(6, 6, 1.0);
         let topo = Topology::new(&grid);
