@@ -5,10 +5,12 @@
 //! The pure algorithms, each in its own module:
 //! - [`mod@smacof`]: metric MDS of the K × K geodesic distance matrix to the plane (Eq. 1);
 //! - [`cluster`]: adaptive clustering of the 2-D images (Algorithm 1);
-//! - [`sphere`]: smallest enclosing sphere of a cluster's keypoints (Welzl);
+//! - [`sphere`]: smallest enclosing sphere of a cluster's keypoints (Welzl), or the robust
+//!   preset's sphere from their spread ([`SphereRule`]);
 //! - [`grow`]: geodesic centre of a cluster (Eq. 2) and region growing on the mesh inside the
 //!   scaled sphere (Algorithm 2);
-//! - [`params`]: the stage's parameters and the paper's presets KC-1, KC-2, KC-3.
+//! - [`params`]: the stage's parameters, the paper's presets KC-1, KC-2, KC-3 and keycomp's
+//!   robust preset.
 //!
 //! Per cluster `S_i`: `ĉ_i = geodesic_center(S_i, points2d)`, `(o_i, r_i) =
 //! min_enclosing_sphere(positions of S_i)`, component = `RegionGrower::grow(ĉ_i, S_i, (o_i, r_i),

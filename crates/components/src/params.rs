@@ -26,9 +26,11 @@
 //! keypoints instead of 500 its cost is four times KC-1's per start, and the second start
 //! changed no row by more than 0.01.
 //!
-//! Measured with `keycomp bench repeatability` (BENCHMARKS.md section 3, *A robust
-//! default*): average overlap at strength ≤ 5 from 0.85 (KC-1) to 0.90, noise 0.67 → 0.84,
-//! shot noise 0.62 → 0.85, isometry 0.76 → 0.83, with every row reported there.
+//! Measured with `keycomp bench repeatability` (BENCHMARKS.md section 3, *The robust
+//! preset*): average overlap at strength ≤ 5 from 0.848 (KC-1) to 0.895, noise 0.666 →
+//! 0.834, shot noise 0.619 → 0.852, isometry 0.757 → 0.831, with every row (some lose up
+//! to 0.023) and each ingredient's share reported there; detection takes 1.5–1.6× KC-1's
+//! time.
 
 use std::fmt;
 use std::str::FromStr;

@@ -12,8 +12,9 @@
 //! 4. SMACOF embedding of the K×K matrix in the plane (Eq. 1; [`mod@crate::smacof`]), by
 //!    default from two starts, one of them the classical scaling of the matrix.
 //! 5. Adaptive clustering of the 2-D points (Algorithm 1; [`crate::cluster`]).
-//! 6. Per cluster: geodesic centre (Eq. 2), smallest enclosing sphere of its keypoints (Welzl)
-//!    and region growing bounded by σ·r (Algorithm 2; [`crate::grow`]).
+//! 6. Per cluster: geodesic centre (Eq. 2), smallest enclosing sphere of its keypoints (Welzl;
+//!    or, with [`SphereRule::Spread`], a sphere from their mean and RMS spread) and region
+//!    growing bounded by σ·r (Algorithm 2; [`crate::grow`]).
 //!
 //! Cost: Harris O(|V|·n) for neighbourhoods of n points; fast marching O(K·|V| log |V|) (the
 //! dominant term: K ≈ |V|/100 fronts), O(K·N log N) on a proxy of N vertices plus

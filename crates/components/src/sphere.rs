@@ -1,5 +1,7 @@
 //! Smallest enclosing sphere (o, r) of a 3-D point set: the size of a key-component (the
-//! paper's Section 3.3: the smallest sphere containing every keypoint of a cluster).
+//! paper's Section 3.3: the smallest sphere containing every keypoint of a cluster). The
+//! robust preset replaces it by [`spread_sphere`] (mean and RMS distance, O(n); see
+//! [`SphereRule`]); the rest of this documentation is about the enclosing sphere.
 //!
 //! Welzl's algorithm in its move-to-front form, written as loops whose nesting depth is the size
 //! of the support set (at most 4), so there is no recursion on the number of points. With
