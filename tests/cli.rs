@@ -105,9 +105,11 @@ fn detect_defaults_to_the_robust_preset() {
     let w: Value = serde_json::from_slice(&kc1.stdout).expect("valid JSON");
     assert_eq!(w["params"]["harris"]["smoothing_iterations"], 0);
     assert_eq!(w["params"]["components"]["sphere"], "Enclosing");
-    // about twice the keypoints of the paper's 1 % (each count is rounded on its own)
-    let n = |v: &Value| v["keypoints"].as_array().expect("keypoints").len() as i64;
-    assert!((n(&v) - 2 * n(&w)).abs() <= 1, "{} vs {}", n(&v), n(&w));
+    // a budget of 2 % instead of 1 % (40,962 vertices: 819 against 410); the smoothed
+    // responses have fewer local maxima to choose from, so the robust count can fall short
+    let n = |v: &Value| v["keypoints"].as_array().expect("keypoints").len();
+    assert_eq!(n(&w), 410);
+    assert!(n(&v) > 3 * n(&w) / 2 && n(&v) <= 819, "{} vs {}", n(&v), n(&w));
     // the protrusions are found by the robust preset too: every component's centre is a
     // keypoint inside it
     let comps = v["components"].as_array().expect("components");

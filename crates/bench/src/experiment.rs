@@ -1242,6 +1242,7 @@ mod tests {
                         ..c.cluster
                     },
                     sigma: c.sigma,
+                    sphere: c.sphere,
                 }
             })
             .collect()

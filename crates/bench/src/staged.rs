@@ -118,12 +118,15 @@ mod tests {
         let mut total = 0;
         // N lowered to 10: the shape's 102 keypoints then form clusters under every preset
         // (at N = 20–30 whether any cluster reaches N depends on the embedding's local minimum)
+        // the robust preset's sphere rule on the same keypoints and embedding (its own Harris
+        // and SMACOF settings are stage 1's business)
         let components = |preset: Preset| {
             let mut c = preset.component_params();
             c.cluster.n_min = 10;
+            c.smacof = smacof.clone();
             c
         };
-        for preset in Preset::ALL {
+        for preset in Preset::ALL.into_iter().chain([Preset::Robust]) {
             let params = DetectParams {
                 harris,
                 components: components(preset),
@@ -135,7 +138,7 @@ mod tests {
                 det.components.iter().map(|c| c.vertices.clone()).collect();
             let p = components(preset);
             let got = extractor
-                .components(&embedded, &p.cluster, p.sigma)
+                .components(&embedded, &p.cluster, p.sigma, p.sphere)
                 .unwrap();
             assert_eq!(got, expected, "{preset}");
             assert!(
@@ -156,11 +159,19 @@ mod tests {
             keypoints: vec![0, 10_000],
             points: vec![[0.0, 0.0], [1.0, 0.0]],
         };
-        assert!(extractor.components(&bad, &p.cluster, p.sigma).is_err());
+        assert!(
+            extractor
+                .components(&bad, &p.cluster, p.sigma, p.sphere)
+                .is_err()
+        );
         let uneven = Embedded {
             keypoints: vec![0, 1],
             points: vec![[0.0, 0.0]],
         };
-        assert!(extractor.components(&uneven, &p.cluster, p.sigma).is_err());
+        assert!(
+            extractor
+                .components(&uneven, &p.cluster, p.sigma, p.sphere)
+                .is_err()
+        );
     }
 }

@@ -458,10 +458,16 @@ fn smoothing_lowers_a_spike_against_real_features() {
         ..params
     };
     let (before, after) = (ratio(&params), ratio(&smoothed));
-    assert!(before > 0.0 && after < 0.25 * before, "plain {before}, smoothed {after}");
+    assert!(
+        before > 0.0 && after < 0.25 * before,
+        "plain {before}, smoothed {after}"
+    );
     // the best keypoint is a tip either way
     for h in [params, smoothed] {
         let best = detect(&m, &topo, &h).expect("valid").keypoints[0];
-        assert!(tips.iter().any(|&t| ring(&topo, t, 2).contains(&best)), "{best}");
+        assert!(
+            tips.iter().any(|&t| ring(&topo, t, 2).contains(&best)),
+            "{best}"
+        );
     }
 }
