@@ -109,7 +109,12 @@ fn detect_defaults_to_the_robust_preset() {
     // responses have fewer local maxima to choose from, so the robust count can fall short
     let n = |v: &Value| v["keypoints"].as_array().expect("keypoints").len();
     assert_eq!(n(&w), 410);
-    assert!(n(&v) > 3 * n(&w) / 2 && n(&v) <= 819, "{} vs {}", n(&v), n(&w));
+    assert!(
+        n(&v) > 3 * n(&w) / 2 && n(&v) <= 819,
+        "{} vs {}",
+        n(&v),
+        n(&w)
+    );
     // the protrusions are found by the robust preset too: every component's centre is a
     // keypoint inside it
     let comps = v["components"].as_array().expect("components");
