@@ -52,8 +52,10 @@ pub enum SphereRule {
     Enclosing,
     /// Centred at the keypoints' mean, radius `factor` times their root-mean-square distance
     /// from it ([`spread_sphere`]). Every keypoint weighs the same, so the radius moves little
-    /// when one keypoint at the edge comes or goes. Not in the paper: the robust preset's
-    /// choice ([`crate::Preset::Robust`]), with factor 1.2. `factor` must be finite and > 0.
+    /// when one keypoint at the edge comes or goes. Outlying keypoints beyond σ·r are left
+    /// outside the component (region growing reports them as missed). Not in the paper: the
+    /// robust preset's choice ([`crate::Preset::Robust`]), with factor 1.2. `factor` must be
+    /// finite and > 0.
     Spread {
         /// Radius over the RMS distance (unitless, > 0). For keypoints spread evenly over a
         /// flat disc of radius ρ the RMS distance is ρ/√2, so √2 ≈ 1.41 gives the disc back;
