@@ -122,7 +122,7 @@ pub mod fuzzing {
     }
 
     /// Decodes a search-cache payload (the `SEARCH-CACHE` file without its footer) as a reader
-    /// does, for [`cache_points`]'s descriptors; whether it was accepted.
+    /// does, for `cache_points`'s descriptors; whether it was accepted.
     pub fn decode_search_cache_payload(payload: &[u8]) -> bool {
         let points = cache_points();
         let flat = crate::ivf::Flat {

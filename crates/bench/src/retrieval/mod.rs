@@ -1,8 +1,8 @@
 //! Retrieval quality of a labelled collection (`keycomp bench retrieval`): whole-shape and
 //! partial queries, the Princeton Shape Benchmark measures ([`metrics`]), two baselines, the D2
 //! shape distribution ([`d2`]) and an FPFH bag of words ([`fpfh`]), both drawing their points
-//! with one area sampler ([`sample`]), and class labels ([`labels`]); the partial queries are cut
-//! from the collection by `keycomp_fragment`.
+//! with one area sampler ([`keycomp_mesh::sample`]), and class labels ([`labels`]); the
+//! partial queries are cut from the collection by `keycomp_fragment`.
 //!
 //! The command (in the `keycomp` binary) ranks the collection for every query by
 //! key-components through the on-disk index and `keycomp_retrieval::rank`, by D2 histogram
