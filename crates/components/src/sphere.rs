@@ -95,6 +95,22 @@ impl SphereRule {
 ///
 /// Errors: an empty set, or a non-finite coordinate.
 pub fn spread_sphere(points: &[Point3<f64>], factor: f64) -> Result<Sphere, ComponentsError> {
+    check_points(points)?;
+    let n = points.len() as f64;
+    let mean = points.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / n;
+    let ms = points
+        .iter()
+        .map(|p| (p.coords - mean).norm_squared())
+        .sum::<f64>()
+        / n;
+    Ok(Sphere {
+        center: Point3::from(mean),
+        radius: factor * ms.sqrt(),
+    })
+}
+
+/// The inputs both sphere rules accept: a non-empty set of finite points.
+fn check_points(points: &[Point3<f64>]) -> Result<(), ComponentsError> {
     if points.is_empty() {
         return Err(ComponentsError::Empty { what: "point set" });
     }
@@ -107,17 +123,7 @@ pub fn spread_sphere(points: &[Point3<f64>], factor: f64) -> Result<Sphere, Comp
             index,
         });
     }
-    let n = points.len() as f64;
-    let mean = points.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / n;
-    let ms = points
-        .iter()
-        .map(|p| (p.coords - mean).norm_squared())
-        .sum::<f64>()
-        / n;
-    Ok(Sphere {
-        center: Point3::from(mean),
-        radius: factor * ms.sqrt(),
-    })
+    Ok(())
 }
 
 /// A sphere: centre and radius.
@@ -143,18 +149,7 @@ const SHUFFLE_SEED: u64 = 0x5eed_ba11;
 ///
 /// Errors: `points` is empty or has a NaN or infinite coordinate.
 pub fn min_enclosing_sphere(points: &[Point3<f64>]) -> Result<Sphere, ComponentsError> {
-    if points.is_empty() {
-        return Err(ComponentsError::Empty { what: "point set" });
-    }
-    if let Some(index) = points
-        .iter()
-        .position(|p| !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()))
-    {
-        return Err(ComponentsError::NonFinitePoint {
-            what: "sphere point",
-            index,
-        });
-    }
+    check_points(points)?;
     let (mut lo, mut hi) = (points[0].coords, points[0].coords);
     for p in points {
         lo = lo.inf(&p.coords);
