@@ -210,6 +210,8 @@ impl Args {
                     cluster,
                     sigma: self.sigma.unwrap_or(c.sigma),
                     sphere: self.sphere.unwrap_or(c.sphere),
+                    // the robust preset keeps KC-1's clustering: read beside the paper's KC-1
+                    paper_name: if p.is_paper() { *p } else { Preset::Kc1 }.to_string(),
                 }
             })
             .collect();
@@ -220,18 +222,13 @@ impl Args {
         }
         // The presets of one run share their keypoints (stage 1); `--preset` takes either
         // robust or paper presets, never both.
-        let base = match self.preset.0.first() {
-            Some(p) if kc => p.harris_params(),
-            _ => HarrisParams::default(),
-        };
+        let lead = self.preset.0.first().copied().filter(|_| kc);
+        let base = lead.map_or_else(HarrisParams::default, Preset::harris_params);
         let mut harris = self.harris.params(base);
         if let Some(n) = self.smoothing {
             harris.smoothing_iterations = n;
         }
-        let base_smacof = match self.preset.0.first() {
-            Some(p) if kc => p.component_params().smacof,
-            _ => SmacofParams::default(),
-        };
+        let base_smacof = lead.map_or_else(SmacofParams::default, |p| p.component_params().smacof);
         let budget = if self.tessellation_independent {
             Budget::NullCalibrated(match base.selection {
                 Selection::Fraction(f) => f,

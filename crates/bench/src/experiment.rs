@@ -351,6 +351,9 @@ pub struct PresetSpec {
     /// The sphere that σ scales (the paper's enclosing sphere, or the robust preset's spread
     /// sphere).
     pub sphere: SphereRule,
+    /// The paper's table read beside ours (`KC-1`, …, `MSER-KC`): the preset's own for the
+    /// paper's presets, KC-1's for the robust preset (KC-1's clustering), none if unknown.
+    pub paper_name: String,
 }
 
 impl PresetSpec {
@@ -368,6 +371,7 @@ impl PresetSpec {
             cluster: ClusterParams::default(),
             sigma: 0.0,
             sphere: SphereRule::Enclosing,
+            paper_name: name.to_owned(),
         })
     }
 }
@@ -1017,11 +1021,7 @@ fn preset_report(
         repeatability_at_0_8,
         component_counts,
         curves,
-        // the robust preset is KC-1's clustering, so it is read beside the paper's KC-1
-        paper: paper_table(match spec.name.trim_end_matches('*') {
-            "robust" => "KC-1",
-            name => name,
-        }),
+        paper: paper_table(&spec.paper_name),
     }
 }
 
@@ -1243,6 +1243,7 @@ mod tests {
                     },
                     sigma: c.sigma,
                     sphere: c.sphere,
+                    paper_name: p.to_string(),
                 }
             })
             .collect()
