@@ -1026,7 +1026,7 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
         .with_context(|| format!("{}: cannot write", index_dir.display()))?;
     let reader = Reader::open(&index_dir)?;
     let index_of: HashMap<PathBuf, usize> = reader
-        .shapes()
+        .shapes()?
         .iter()
         .filter_map(|s| {
             files

@@ -201,7 +201,7 @@ fn list(args: DirArgs) -> Result<ExitCode> {
     let reader = Reader::open(&args.index)?;
     if args.json {
         let rows: Vec<serde_json::Value> = reader
-            .shapes()
+            .shapes()?
             .iter()
             .map(|s| {
                 serde_json::json!({
@@ -217,7 +217,7 @@ fn list(args: DirArgs) -> Result<ExitCode> {
         output::print_json(&rows)?;
     } else {
         let mut s = String::new();
-        for sh in reader.shapes() {
+        for sh in reader.shapes()? {
             writeln!(
                 s,
                 "{:>6}  {:>8} v  {:>3} comp  {}",

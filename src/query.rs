@@ -98,7 +98,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
             "{}: {} parts; {} shapes in {}",
             args.mesh.display(),
             answer.components,
-            reader.shapes().len(),
+            reader.len(),
             args.index.display()
         )?;
         if answer.components == 0 {

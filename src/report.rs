@@ -293,7 +293,7 @@ fn build(out: &Path, reader: &Reader, entries: &[QueryEntry], params: &ReportPar
          dark grey. Result components are drawn as the region of their indexed area around \
          their indexed centre (the index keeps centres and areas, not vertex sets).</p>",
         escape(&reader.dir().display().to_string()),
-        reader.shapes().len()
+        reader.len()
     )?;
     for (qi, e) in entries.iter().enumerate() {
         let q = e.query;
@@ -336,7 +336,7 @@ fn build(out: &Path, reader: &Reader, entries: &[QueryEntry], params: &ReportPar
             "<table><tr><th>rank</th><th>picture</th><th>shape, score and matched components</th></tr>"
         )?;
         for (ri, r) in e.results.iter().enumerate() {
-            let Some(rec) = reader.get(r.id) else {
+            let Some(rec) = reader.get(r.id)? else {
                 continue;
             };
             let src = rec.canonical_path.clone();

@@ -99,13 +99,13 @@ impl Searcher {
     /// ([`query_profile`]).
     pub fn open(dir: &Path, detect: Option<&DetectParams>) -> Result<Searcher, Error> {
         let t = Instant::now();
-        let reader = Reader::open(dir)?;
+        let reader = Reader::open_mapped(dir)?;
         let default = DetectOptions::default().retrieval_params();
         let mine = Profile::current(detect.unwrap_or(&default));
         let profile = query_profile(
             dir,
             reader.profile(),
-            reader.shapes().len(),
+            reader.len(),
             &mine,
             detect.is_none_or(|d| *d == default),
         )?;
@@ -211,11 +211,11 @@ impl Searcher {
         ranked: &[Ranked],
         k: usize,
         timings_ms: QueryTimings,
-    ) -> QueryResult {
+    ) -> Result<QueryResult, Error> {
         let not_returned = if ranked.len() < k {
             let seen: std::collections::BTreeSet<_> = ranked.iter().map(|r| r.id).collect();
             self.reader
-                .shapes()
+                .shapes()?
                 .iter()
                 .filter(|s| !seen.contains(&s.id))
                 .map(|s| s.record.path.display().to_string())
@@ -223,7 +223,7 @@ impl Searcher {
         } else {
             Vec::new()
         };
-        QueryResult {
+        Ok(QueryResult {
             query: name.to_string(),
             components: query.description.components.len(),
             results: ranked
@@ -249,7 +249,7 @@ impl Searcher {
                 .collect(),
             not_returned,
             timings_ms,
-        }
+        })
     }
 
     /// Analyses the query file at `path` and ranks the index for it: the `k` best shapes.
@@ -295,7 +295,7 @@ impl Searcher {
             search,
             total: self.open_ms + t.elapsed().as_secs_f64() * 1e3,
         };
-        let result = self.result(name, &q, &ranked, k, timings);
+        let result = self.result(name, &q, &ranked, k, timings)?;
         Ok((q, ranked, result))
     }
 }

@@ -236,7 +236,12 @@ fn an_index_recorded_before_new_parameters_keeps_its_own() {
         .expect("smacof")
         .remove("classical_start");
     let old_text = serde_json::to_string(&profile).expect("json");
-    let records: Vec<_> = reader.shapes().iter().map(|sh| sh.record.clone()).collect();
+    let records: Vec<_> = reader
+        .shapes()
+        .unwrap()
+        .iter()
+        .map(|sh| sh.record.clone())
+        .collect();
     let old = dir.path().join("old");
     let mut w = keycomp_index::IndexWriter::<{ keycomp_describe::DIM }>::create_or_open(&old)
         .expect("writer");
@@ -249,7 +254,7 @@ fn an_index_recorded_before_new_parameters_keeps_its_own() {
     let reader =
         keycomp_index::IndexReader::<{ keycomp_describe::DIM }>::open(&old).expect("reader");
     assert_eq!(reader.profile(), old_text);
-    assert_eq!(reader.shapes().len(), 2);
+    assert_eq!(reader.shapes().unwrap().len(), 2);
     let o = keycomp(&["query", s(&shape), "--index", s(&old), "--json"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let v: Value = serde_json::from_slice(&o.stdout).expect("json");

@@ -564,9 +564,8 @@ impl Index {
             if !self.path.join(keycomp_index::MANIFEST_NAME).is_file() {
                 return Ok(0);
             }
-            Ok(collection::Reader::open(&self.path)
+            Ok(collection::Reader::open_mapped(&self.path)
                 .map_err(index_err)?
-                .shapes()
                 .len())
         })
     }

@@ -84,13 +84,13 @@ impl Opened {
     }
 }
 
-fn le_u64(b: &[u8]) -> u64 {
+pub(crate) fn le_u64(b: &[u8]) -> u64 {
     let mut a = [0u8; 8];
     a.copy_from_slice(&b[..8]);
     u64::from_le_bytes(a)
 }
 
-fn le_u32(b: &[u8]) -> u32 {
+pub(crate) fn le_u32(b: &[u8]) -> u32 {
     let mut a = [0u8; 4];
     a.copy_from_slice(&b[..4]);
     u32::from_le_bytes(a)
@@ -99,6 +99,25 @@ fn le_u32(b: &[u8]) -> u32 {
 /// Checks the footer of `bytes` (read from `path`): length, magic, checksum, payload length,
 /// version (must be in [`crate::OLDEST_READABLE_VERSION`]`..=newest`), kind (must be `kind`).
 pub fn unseal(path: &Path, bytes: Vec<u8>, kind: u32, newest: u32) -> Result<Opened> {
+    let (checksum, version) = check_footer(path, &bytes, kind, newest, true)?;
+    Ok(Opened {
+        bytes,
+        checksum,
+        version,
+    })
+}
+
+/// The footer checks of [`unseal`] on `bytes` in place; the checksum over the payload is
+/// computed only when `verify_checksum` is set (a memory-mapped segment, whose records carry
+/// their own checksums, is not read whole to be opened). Returns the stored checksum and the
+/// format version.
+pub fn check_footer(
+    path: &Path,
+    bytes: &[u8],
+    kind: u32,
+    newest: u32,
+    verify_checksum: bool,
+) -> Result<(u64, u32)> {
     let len = bytes.len();
     if len == 0 {
         return Err(IndexError::corrupt(path, CorruptKind::Empty));
@@ -114,12 +133,14 @@ pub fn unseal(path: &Path, bytes: Vec<u8>, kind: u32, newest: u32) -> Result<Ope
         return Err(IndexError::corrupt(path, CorruptKind::BadMagic));
     }
     let stored = le_u64(&footer[16..24]);
-    let computed = xxh3_64(&bytes[..len - 16]);
-    if stored != computed {
-        return Err(IndexError::corrupt(
-            path,
-            CorruptKind::ChecksumMismatch { stored, computed },
-        ));
+    if verify_checksum {
+        let computed = xxh3_64(&bytes[..len - 16]);
+        if stored != computed {
+            return Err(IndexError::corrupt(
+                path,
+                CorruptKind::ChecksumMismatch { stored, computed },
+            ));
+        }
     }
     let payload_len = le_u64(&footer[0..8]);
     if payload_len != (len - FOOTER_LEN) as u64 {
@@ -149,11 +170,7 @@ pub fn unseal(path: &Path, bytes: Vec<u8>, kind: u32, newest: u32) -> Result<Ope
             },
         ));
     }
-    Ok(Opened {
-        bytes,
-        checksum: stored,
-        version: found_version,
-    })
+    Ok((stored, found_version))
 }
 
 /// Reads a whole regular file. `NotFound` is returned as the raw `io::Error` so callers can

@@ -31,9 +31,9 @@
 //! assert_eq!(summary.added, 10);
 //! drop(w);
 //! let r = IndexReader::<8>::open(&dir)?;
-//! let q = r.shapes()[3].record.components[0].descriptor;
+//! let q = r.shapes()?[3].record.components[0].descriptor;
 //! let hits = r.nearest_components(&q, 5)?;
-//! assert_eq!(hits[0].shape, r.shapes()[3].id);
+//! assert_eq!(hits[0].shape, r.shapes()?[3].id);
 //! # Ok::<(), keycomp_index::IndexError>(())
 //! ```
 
@@ -41,6 +41,7 @@ mod error;
 mod file;
 mod ivf;
 mod manifest;
+mod mapped;
 mod reader;
 mod record;
 mod segment;
@@ -63,7 +64,7 @@ pub use writer::{AddOutcome, AddSummary, IndexWriter, MergeSummary};
 /// The on-disk format version this build writes. Bumped on any incompatible change; files of a
 /// version outside [`OLDEST_READABLE_VERSION`]`..=FORMAT_VERSION` are refused with
 /// [`IndexError::Incompatible`].
-pub const FORMAT_VERSION: u32 = 4;
+pub const FORMAT_VERSION: u32 = 5;
 
 /// Oldest format version this build still reads (version 1 has no manifest profile; see
 /// `index/README.md`, *Versions*).

@@ -102,10 +102,16 @@ pub struct IndexReader<const D: usize> {
     dir: PathBuf,
     manifest: Manifest,
     bytes: u64,
-    shapes: Vec<IndexedShape<D>>,
-    /// For tree item `i`: (position in `shapes`, component index).
-    owners: Vec<(u32, u32)>,
-    /// For each of `shapes`: its segment and position there (the search cache's key).
+    /// The live shapes by increasing id: where each record is.
+    slots: Vec<Slot>,
+    /// Each slot's record, decoded on first use (at open for segments read whole).
+    records: Vec<OnceLock<Box<IndexedShape<D>>>>,
+    /// `starts[i]`: the live components of the shapes before slot `i` (the search's item
+    /// numbers), one more entry than `slots`.
+    starts: Vec<u64>,
+    /// The memory-mapped segments slots point into.
+    mapped: Vec<MappedSegment>,
+    /// For each slot: its segment and position there (the search cache's key).
     origins: Vec<Origin>,
     search: OnceLock<Search<D>>,
     mode: SearchMode,
@@ -116,19 +122,136 @@ pub struct IndexReader<const D: usize> {
 /// KD-tree (about 390 shapes of 84 parts).
 pub const IVF_MIN_COMPONENTS: usize = 32_768;
 
-/// The live descriptors of a snapshot, in item order (as `owners` lists them), read in place.
-struct Live<'a, const D: usize> {
-    shapes: &'a [IndexedShape<D>],
-    owners: &'a [(u32, u32)],
-}
+/// The live descriptors of a snapshot, in item order, read in place.
+struct Live<'a, const D: usize>(&'a IndexReader<D>);
 
 impl<const D: usize> crate::ivf::Points for Live<'_, D> {
     fn len(&self) -> usize {
-        self.owners.len()
+        self.0.component_count()
     }
     fn point(&self, i: u32) -> &[f32] {
-        let (pos, ci) = self.owners[i as usize];
-        &self.shapes[pos as usize].record.components[ci as usize].descriptor
+        // Items below `len()` always have a descriptor (see `IndexReader::descriptor_slice`).
+        self.0.descriptor_slice(i as usize).unwrap_or(&[])
+    }
+}
+
+/// Slot `segment` value of a shape whose segment was read whole (its record is decoded).
+const DECODED: u32 = u32::MAX;
+
+/// Where a live shape's record is.
+#[derive(Debug, Clone, Copy)]
+struct Slot {
+    id: ShapeId,
+    /// Index in `IndexReader::mapped`, or [`DECODED`].
+    segment: u32,
+    /// Position in its segment.
+    position: u32,
+}
+
+/// A format-5 segment read in place from a memory map (`crate::mapped`): its table and
+/// descriptor block were checked when opened, each record is checked when decoded.
+struct MappedSegment {
+    path: PathBuf,
+    map: memmap2::Mmap,
+    table: crate::mapped::Table,
+    /// The head (the shapes' paths), decoded on first use.
+    head: OnceLock<segment::SegmentHead>,
+}
+
+impl MappedSegment {
+    fn payload(&self) -> &[u8] {
+        &self.map[..self.map.len() - crate::file::FOOTER_LEN]
+    }
+
+    fn malformed(&self, msg: String) -> IndexError {
+        IndexError::corrupt(&self.path, crate::error::CorruptKind::Malformed(msg))
+    }
+
+    /// Maps the segment of `entry` if it is of format 5 and its block can be read in place;
+    /// `None` when it must be read whole instead (an older format, a big-endian machine).
+    fn open<const D: usize>(
+        dir: &Path,
+        manifest: &Manifest,
+        entry: &crate::manifest::SegmentEntry,
+    ) -> Result<Option<Self>> {
+        use crate::file::{self, KIND_SEGMENT};
+        let path = dir.join(segment_file_name(entry.number));
+        let f = match file::open_regular(&path) {
+            Ok(f) => f,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                return Err(IndexError::MissingSegment {
+                    manifest: dir.join(crate::MANIFEST_NAME),
+                    segment: path,
+                });
+            }
+            Err(e) => return Err(IndexError::io("could not open", path, e)),
+        };
+        let len = f
+            .metadata()
+            .map_err(|e| IndexError::io("could not read the size of", &path, e))?
+            .len();
+        if len != entry.len {
+            let bytes =
+                file::read_all(&path).map_err(|e| IndexError::io("could not read", &path, e))?;
+            return Err(segment::length_mismatch(&path, &bytes, entry));
+        }
+        // SAFETY: segment files are never modified once renamed into place (writers write new
+        // files; removing a mapped file leaves the mapping valid). Only another program
+        // truncating the file while it is mapped breaks this (index/README.md).
+        #[allow(unsafe_code)]
+        let map = unsafe { memmap2::Mmap::map(&f) }
+            .map_err(|e| IndexError::io("could not memory-map", &path, e))?;
+        // The footer's fields without the checksum over the whole file; a field that fails
+        // (a version, a kind) may be a damaged byte: the full check then tells which.
+        let (checksum, version) =
+            match file::check_footer(&path, &map, KIND_SEGMENT, FORMAT_VERSION, false) {
+                Ok(v) => v,
+                Err(e) => {
+                    file::check_footer(&path, &map, KIND_SEGMENT, FORMAT_VERSION, true)?;
+                    return Err(e);
+                }
+            };
+        segment::check_listed(&path, checksum, entry)?;
+        if version < 5 {
+            return Ok(None);
+        }
+        let payload = &map[..map.len() - file::FOOTER_LEN];
+        let malformed =
+            |msg: String| IndexError::corrupt(&path, crate::error::CorruptKind::Malformed(msg));
+        let table = crate::mapped::parse(payload).map_err(malformed)?;
+        segment::check_ids(&path, table.entries.iter().map(|e| e.id), manifest, entry)?;
+        table.check_block(D).map_err(malformed)?;
+        if table.count != entry.components {
+            return Err(malformed(format!(
+                "{} components in the file, the manifest says {}",
+                table.count, entry.components
+            )));
+        }
+        if crate::mapped::block(payload, &table).is_none() {
+            return Ok(None);
+        }
+        Ok(Some(MappedSegment {
+            path,
+            map,
+            table,
+            head: OnceLock::new(),
+        }))
+    }
+
+    /// The descriptors of the record at `position`, in place.
+    fn descriptors(&self, position: usize, dim: usize) -> Option<&[f32]> {
+        let e = self.table.entries.get(position)?;
+        let block = crate::mapped::block(self.payload(), &self.table)?;
+        let start = e.first as usize * dim;
+        block.get(start..start + e.components as usize * dim)
+    }
+
+    fn head(&self) -> Result<&segment::SegmentHead> {
+        if let Some(h) = self.head.get() {
+            return Ok(h);
+        }
+        let h = crate::mapped::head(self.payload(), &self.table).map_err(|m| self.malformed(m))?;
+        Ok(self.head.get_or_init(|| h))
     }
 }
 
@@ -183,28 +306,45 @@ impl<const D: usize> std::fmt::Debug for IndexReader<D> {
         f.debug_struct("IndexReader")
             .field("dir", &self.dir)
             .field("generation", &self.manifest.generation)
-            .field("shapes", &self.shapes.len())
-            .field("components", &self.owners.len())
+            .field("shapes", &self.slots.len())
+            .field("components", &self.component_count())
             .finish_non_exhaustive()
     }
 }
 
 impl<const D: usize> IndexReader<D> {
     /// Opens a snapshot of the index at `dir`: reads the manifest and every listed segment,
-    /// verifying all checksums and decoding every record. The KD-tree is built on the first
-    /// search.
+    /// verifying all checksums and decoding every record. The search structure is built (or
+    /// read from the search cache) on the first search.
     ///
     /// Errors: [`IndexError::NotAnIndex`] if `dir` has no `MANIFEST`;
     /// [`IndexError::Corrupt`], [`IndexError::Incompatible`],
     /// [`IndexError::DimensionMismatch`] or [`IndexError::MissingSegment`] naming the file at
     /// fault. Never returns a partial snapshot.
     pub fn open(dir: impl AsRef<Path>) -> Result<Self> {
-        let dir = dir.as_ref();
+        Self::open_with(dir.as_ref(), false)
+    }
+
+    /// Opens a snapshot of the index at `dir` without reading its records: segments of format
+    /// 5 are memory-mapped, their footers, tables (ids, record places, component counts) and
+    /// descriptor blocks checked, and each record is decoded and checked against its own
+    /// checksum when first asked for ([`IndexReader::get`]); the search reads descriptors in
+    /// place. Older segments are read whole, as [`IndexReader::open`] does. Opening thus
+    /// costs the tables (32 bytes per shape), not the records: what a process that answers
+    /// queries on a large index wants. A damaged record is reported, naming its file, by
+    /// the call that reads it; [`crate::verify`] checks every byte.
+    ///
+    /// Errors: as [`IndexReader::open`], for what it reads.
+    pub fn open_mapped(dir: impl AsRef<Path>) -> Result<Self> {
+        Self::open_with(dir.as_ref(), true)
+    }
+
+    fn open_with(dir: &Path, lazy: bool) -> Result<Self> {
         let mut attempt = 0;
         loop {
             attempt += 1;
             let manifest = Manifest::read(dir, Some(segment::dim_u32::<D>()))?;
-            match Self::load(dir, manifest) {
+            match Self::load(dir, manifest, lazy) {
                 Err(e @ IndexError::MissingSegment { .. }) if attempt < OPEN_ATTEMPTS => {
                     // A writer may have committed and deleted the segment meanwhile.
                     let again = Manifest::read(dir, Some(segment::dim_u32::<D>()))?;
@@ -228,54 +368,110 @@ impl<const D: usize> IndexReader<D> {
             .any(|s| dir.join(segment_file_name(s.number)) == *segment)
     }
 
-    fn load(dir: &Path, manifest: Manifest) -> Result<Self> {
+    fn load(dir: &Path, manifest: Manifest, lazy: bool) -> Result<Self> {
         let start = Instant::now();
-        // Segments are independent: read, check and decode them in parallel. The first error
-        // in manifest order is reported, so the message does not depend on scheduling.
-        let segments: Vec<Result<segment::Segment<D>>> = manifest
+        /// A segment as opened: mapped, or read whole.
+        enum Opened<const D: usize> {
+            Mapped(MappedSegment),
+            Read(segment::Segment<D>),
+        }
+        // Segments are independent: open them in parallel. The first error in manifest order
+        // is reported, so the message does not depend on scheduling.
+        let segments: Vec<Result<Opened<D>>> = manifest
             .segments
             .par_iter()
-            .map(|entry| segment::read::<D>(dir, &manifest, entry))
+            .map(|entry| {
+                if lazy && let Some(m) = MappedSegment::open::<D>(dir, &manifest, entry)? {
+                    return Ok(Opened::Mapped(m));
+                }
+                segment::read::<D>(dir, &manifest, entry).map(Opened::Read)
+            })
             .collect();
-        let mut live = Vec::new();
+        // (slot, record if decoded, origin) of every live shape
+        let mut live: Vec<(Slot, Option<ShapeRecord<D>>, Origin)> = Vec::new();
+        let mut mapped = Vec::new();
         let mut bytes = 0u64;
         for (entry, seg) in manifest.segments.iter().zip(segments) {
-            let seg = seg?;
             bytes += entry.len;
-            for (position, (c, record)) in
-                seg.head.catalogue.into_iter().zip(seg.records).enumerate()
-            {
-                if !manifest.is_tombstoned(c.id) {
-                    let origin = Origin {
-                        segment: (entry.number, entry.len, entry.checksum),
-                        position: position as u32,
-                        components: record.components.len() as u32,
-                    };
-                    live.push((IndexedShape { id: c.id, record }, origin));
+            let key = (entry.number, entry.len, entry.checksum);
+            match seg? {
+                Opened::Mapped(m) => {
+                    let index = u32::try_from(mapped.len()).unwrap_or(DECODED - 1);
+                    for (position, e) in m.table.entries.iter().enumerate() {
+                        if !manifest.is_tombstoned(e.id) {
+                            let slot = Slot {
+                                id: e.id,
+                                segment: index,
+                                position: position as u32,
+                            };
+                            let origin = Origin {
+                                segment: key,
+                                position: position as u32,
+                                components: e.components,
+                            };
+                            live.push((slot, None, origin));
+                        }
+                    }
+                    mapped.push(m);
+                }
+                Opened::Read(seg) => {
+                    for (position, (c, record)) in
+                        seg.head.catalogue.into_iter().zip(seg.records).enumerate()
+                    {
+                        if !manifest.is_tombstoned(c.id) {
+                            let slot = Slot {
+                                id: c.id,
+                                segment: DECODED,
+                                position: position as u32,
+                            };
+                            let origin = Origin {
+                                segment: key,
+                                position: position as u32,
+                                components: record.components.len() as u32,
+                            };
+                            live.push((slot, Some(record), origin));
+                        }
+                    }
                 }
             }
         }
         bytes += manifest.to_bytes().map(|b| b.len() as u64).unwrap_or(0);
         live.sort_by_key(|s| s.0.id);
-        let (shapes, origins): (Vec<IndexedShape<D>>, Vec<Origin>) = live.into_iter().unzip();
-        let total: usize = shapes.iter().map(|s| s.record.components.len()).sum();
-        if u32::try_from(total).is_err() || u32::try_from(shapes.len()).is_err() {
+        let mut starts = Vec::with_capacity(live.len() + 1);
+        let mut total = 0u64;
+        starts.push(0);
+        for (_, _, o) in &live {
+            total += u64::from(o.components);
+            starts.push(total);
+        }
+        if u32::try_from(total).is_err() || u32::try_from(live.len()).is_err() {
             return Err(IndexError::InvalidQuery {
                 reason: format!("{total} components are more than one index can search"),
             });
         }
-        let mut owners = Vec::with_capacity(total);
-        for (pos, s) in shapes.iter().enumerate() {
-            for ci in 0..s.record.components.len() {
-                owners.push((pos as u32, ci as u32));
+        let mut slots = Vec::with_capacity(live.len());
+        let mut records = Vec::with_capacity(live.len());
+        let mut origins = Vec::with_capacity(live.len());
+        for (slot, record, origin) in live {
+            let cell = OnceLock::new();
+            if let Some(record) = record {
+                let _ = cell.set(Box::new(IndexedShape {
+                    id: slot.id,
+                    record,
+                }));
             }
+            slots.push(slot);
+            records.push(cell);
+            origins.push(origin);
         }
         Ok(IndexReader {
             dir: dir.to_path_buf(),
             manifest,
             bytes,
-            shapes,
-            owners,
+            slots,
+            records,
+            starts,
+            mapped,
             origins,
             search: OnceLock::new(),
             mode: SearchMode::Auto,
@@ -294,9 +490,9 @@ impl<const D: usize> IndexReader<D> {
     /// Whether searches are approximate (the inverted file) for this snapshot and mode.
     pub fn search_is_approximate(&self) -> bool {
         match self.mode {
-            SearchMode::Auto => self.owners.len() >= IVF_MIN_COMPONENTS,
+            SearchMode::Auto => self.component_count() >= IVF_MIN_COMPONENTS,
             SearchMode::Exact => false,
-            SearchMode::Approximate => !self.owners.is_empty(),
+            SearchMode::Approximate => self.component_count() > 0,
         }
     }
 
@@ -341,10 +537,7 @@ impl<const D: usize> IndexReader<D> {
     /// there for the next reader (best effort: a read-only index folder, a damaged or stale
     /// cache only cost a build).
     fn inverted_file(&self) -> (Ivf, SearchSource) {
-        let live = Live {
-            shapes: &self.shapes,
-            owners: &self.owners,
-        };
+        let live = Live(self);
         let key = self.snapshot_key();
         let path = self.dir.join(SEARCH_CACHE_NAME);
         if let Ok(bytes) = crate::file::read_all(&path)
@@ -380,7 +573,7 @@ impl<const D: usize> IndexReader<D> {
         let s = self.search();
         match (&s.ivf, &s.tree) {
             (Some(ivf), _) => ivf.bytes(),
-            (None, Some(_)) => self.owners.len() * (4 * D + 4),
+            (None, Some(_)) => self.component_count() * (4 * D + 4),
             (None, None) => 0,
         }
     }
@@ -397,10 +590,8 @@ impl<const D: usize> IndexReader<D> {
                     build_time: start.elapsed(),
                 };
             }
-            let points: Vec<[f32; D]> = self
-                .shapes
-                .iter()
-                .flat_map(|s| s.record.components.iter().map(|c| c.descriptor))
+            let points: Vec<[f32; D]> = (0..self.component_count())
+                .filter_map(|i| self.descriptor(i).map(|(_, _, d)| *d))
                 .collect();
             let tree = if points.is_empty() {
                 None
@@ -441,35 +632,100 @@ impl<const D: usize> IndexReader<D> {
         self.manifest.generation
     }
 
-    /// All live shapes, by increasing id.
-    pub fn shapes(&self) -> &[IndexedShape<D>] {
-        &self.shapes
+    /// Number of live shapes.
+    pub fn len(&self) -> usize {
+        self.slots.len()
     }
 
-    /// The record of shape `id`, if it is live in this snapshot.
-    pub fn get(&self, id: ShapeId) -> Option<&ShapeRecord<D>> {
-        self.shapes
-            .binary_search_by_key(&id, |s| s.id)
-            .ok()
-            .map(|i| &self.shapes[i].record)
+    /// Whether the snapshot holds no live shape.
+    pub fn is_empty(&self) -> bool {
+        self.slots.is_empty()
+    }
+
+    /// The ids of the live shapes, increasing.
+    pub fn ids(&self) -> impl ExactSizeIterator<Item = ShapeId> + '_ {
+        self.slots.iter().map(|s| s.id)
+    }
+
+    /// The shape of slot `i` (`i < len()`), decoded if it is not yet.
+    fn shape_at(&self, i: usize) -> Result<&IndexedShape<D>> {
+        let cell = &self.records[i];
+        if let Some(s) = cell.get() {
+            return Ok(s);
+        }
+        let slot = self.slots[i];
+        // A slot without a decoded record points into a mapped segment.
+        let m = self
+            .mapped
+            .get(slot.segment as usize)
+            .ok_or_else(|| IndexError::InvalidQuery {
+                reason: format!("shape {} has no record", slot.id),
+            })?;
+        let record = crate::mapped::record::<D>(m.payload(), &m.table, slot.position as usize)
+            .map_err(|msg| m.malformed(msg))?;
+        Ok(cell.get_or_init(|| {
+            Box::new(IndexedShape {
+                id: slot.id,
+                record,
+            })
+        }))
+    }
+
+    /// All live shapes, by increasing id (records of a mapped snapshot are decoded, in
+    /// parallel, and kept).
+    ///
+    /// Errors: [`IndexError::Corrupt`] naming the segment of the first damaged record.
+    pub fn shapes(&self) -> Result<Vec<&IndexedShape<D>>> {
+        (0..self.slots.len())
+            .into_par_iter()
+            .map(|i| self.shape_at(i))
+            .collect()
+    }
+
+    /// The record of shape `id`, if it is live in this snapshot (decoded on first use).
+    ///
+    /// Errors: [`IndexError::Corrupt`] if its record is damaged.
+    pub fn get(&self, id: ShapeId) -> Result<Option<&ShapeRecord<D>>> {
+        match self.slots.binary_search_by_key(&id, |s| s.id) {
+            Ok(i) => self.shape_at(i).map(|s| Some(&s.record)),
+            Err(_) => Ok(None),
+        }
+    }
+
+    /// The canonical path of slot `i`, without decoding its record.
+    fn canonical_path_at(&self, i: usize) -> Result<&Path> {
+        let slot = self.slots[i];
+        match self.mapped.get(slot.segment as usize) {
+            Some(m) => {
+                let head = m.head()?;
+                Ok(Path::new(
+                    head.catalogue
+                        .get(slot.position as usize)
+                        .map_or("", |c| c.canonical_path.as_str()),
+                ))
+            }
+            None => Ok(&self.shape_at(i)?.record.canonical_path),
+        }
     }
 
     /// The live shape whose canonical path is `path` (taken as given, then canonicalised).
-    pub fn find_path(&self, path: &Path) -> Option<&IndexedShape<D>> {
+    ///
+    /// Errors: [`IndexError::Corrupt`] if a segment head or that shape's record is damaged.
+    pub fn find_path(&self, path: &Path) -> Result<Option<&IndexedShape<D>>> {
         let canon = canonical_path(path);
-        self.shapes
-            .iter()
-            .find(|s| s.record.canonical_path == path)
-            .or_else(|| {
-                self.shapes
-                    .iter()
-                    .find(|s| s.record.canonical_path == canon)
-            })
+        for want in [path, canon.as_path()] {
+            for i in 0..self.slots.len() {
+                if self.canonical_path_at(i)? == want {
+                    return self.shape_at(i).map(Some);
+                }
+            }
+        }
+        Ok(None)
     }
 
-    /// Number of live components (the KD-tree's size).
+    /// Number of live components (the search's items).
     pub fn component_count(&self) -> usize {
-        self.owners.len()
+        self.starts.last().copied().unwrap_or(0) as usize
     }
 
     /// Summary numbers.
@@ -479,19 +735,47 @@ impl<const D: usize> IndexReader<D> {
             format_version: FORMAT_VERSION,
             generation: self.manifest.generation,
             dim: D,
-            shapes: self.shapes.len(),
-            components: self.owners.len(),
+            shapes: self.slots.len(),
+            components: self.component_count(),
             segments: self.manifest.segments.len(),
             tombstones: self.manifest.tombstones.len(),
             bytes: self.bytes,
         }
     }
 
+    /// The slot and component of search item `item`.
+    fn owner(&self, item: usize) -> Option<(usize, usize)> {
+        if item >= self.component_count() {
+            return None;
+        }
+        let slot = self.starts.partition_point(|&s| s <= item as u64) - 1;
+        Some((slot, item - self.starts[slot] as usize))
+    }
+
+    /// The descriptor of search item `item`, in place (a mapped segment's block, or a decoded
+    /// record).
+    fn descriptor_slice(&self, item: usize) -> Option<&[f32]> {
+        let (slot, c) = self.owner(item)?;
+        let s = self.slots[slot];
+        match self.mapped.get(s.segment as usize) {
+            Some(m) => m
+                .descriptors(s.position as usize, D)?
+                .get(c * D..(c + 1) * D),
+            None => Some(
+                &self.records[slot]
+                    .get()?
+                    .record
+                    .components
+                    .get(c)?
+                    .descriptor,
+            ),
+        }
+    }
+
     fn descriptor(&self, item: usize) -> Option<(ShapeId, usize, &[f32; D])> {
-        let (pos, ci) = *self.owners.get(item)?;
-        let s = self.shapes.get(pos as usize)?;
-        let c = s.record.components.get(ci as usize)?;
-        Some((s.id, ci as usize, &c.descriptor))
+        let (slot, c) = self.owner(item)?;
+        let d = self.descriptor_slice(item)?;
+        Some((self.slots[slot].id, c, d.try_into().ok()?))
     }
 
     /// The `k` live components nearest to `query` (squared Euclidean distance), closest first;
@@ -552,7 +836,7 @@ impl<const D: usize> IndexReader<D> {
     /// Exact `k` nearest components by scanning every descriptor (the oracle the KD-tree is
     /// tested against, and the fallback if the tree could not be built).
     pub fn nearest_linear(&self, query: &[f32; D], k: usize) -> Vec<ComponentMatch> {
-        let mut all: Vec<ComponentMatch> = (0..self.owners.len())
+        let mut all: Vec<ComponentMatch> = (0..self.component_count())
             .filter_map(|i| self.descriptor(i))
             .map(|(shape, component, d)| ComponentMatch {
                 shape,

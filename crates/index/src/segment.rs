@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{CorruptKind, IndexError, Result};
 use crate::file::{self, KIND_SEGMENT};
-use crate::manifest::{Manifest, SegmentEntry, bincode_config, decode_bounded, segment_file_name};
+use crate::manifest::{Manifest, SegmentEntry, decode_bounded, segment_file_name};
 use crate::record::{ContentHash, ShapeId, ShapeRecord, ShapeRecordV2, ShapeRecordV3};
 use crate::{FORMAT_VERSION, MANIFEST_NAME};
 
@@ -66,13 +66,11 @@ pub fn encode<const D: usize>(
             })
             .collect(),
     };
-    let enc_err = |e: bincode::error::EncodeError| IndexError::InvalidRecord {
-        path: PathBuf::from(segment_file_name(number)),
-        reason: format!("could not encode the segment: {e}"),
-    };
-    let mut payload = bincode::serde::encode_to_vec(&head, bincode_config()).map_err(enc_err)?;
-    let body = bincode::serde::encode_to_vec(records, bincode_config()).map_err(enc_err)?;
-    payload.extend_from_slice(&body);
+    let payload =
+        crate::mapped::encode::<D>(&head, records).map_err(|reason| IndexError::InvalidRecord {
+            path: PathBuf::from(segment_file_name(number)),
+            reason,
+        })?;
     Ok(file::seal(payload, KIND_SEGMENT, FORMAT_VERSION))
 }
 
@@ -81,13 +79,21 @@ pub(crate) fn dim_u32<const D: usize>() -> u32 {
     u32::try_from(D).unwrap_or(u32::MAX)
 }
 
+/// Where the records of a checked segment are.
+pub(crate) enum Rest {
+    /// Formats 1 to 4: one bincode `Vec` of records from this payload offset on.
+    Bincode(usize),
+    /// Format 5: the table ([`crate::mapped`]).
+    Table(crate::mapped::Table),
+}
+
 /// Reads a segment file listed in `manifest`, checks it against `entry` and its own footer,
-/// and returns its bytes (footer checked) and decoded head plus the offset where records start.
+/// and returns its bytes (footer checked), its decoded head and where its records are.
 fn open_checked(
     dir: &Path,
     manifest: &Manifest,
     entry: &SegmentEntry,
-) -> Result<(file::Opened, SegmentHead, usize, PathBuf)> {
+) -> Result<(file::Opened, SegmentHead, Rest, PathBuf)> {
     let path = dir.join(segment_file_name(entry.number));
     let bytes = match file::read_all(&path) {
         Ok(b) => b,
@@ -101,49 +107,81 @@ fn open_checked(
     };
     let actual = bytes.len() as u64;
     if actual != entry.len {
-        // Report a damaged footer first if there is one; a length mismatch otherwise.
-        let kind = match file::unseal(&path, bytes, KIND_SEGMENT, FORMAT_VERSION) {
-            Err(e) => return Err(e),
-            Ok(_) => CorruptKind::LengthMismatch {
-                expected: entry.len,
-                actual,
-            },
-        };
-        return Err(IndexError::corrupt(path, kind));
+        return Err(length_mismatch(&path, &bytes, entry));
     }
     let opened = file::unseal(&path, bytes, KIND_SEGMENT, FORMAT_VERSION)?;
-    if opened.checksum != entry.checksum {
+    check_listed(&path, opened.checksum, entry)?;
+    let (head, rest) = head_of(&path, opened.payload(), opened.version, manifest, entry)?;
+    Ok((opened, head, rest, path))
+}
+
+/// The error for a segment file of another length than its manifest entry's: a damaged
+/// footer if there is one, a length mismatch otherwise.
+pub(crate) fn length_mismatch(path: &Path, bytes: &[u8], entry: &SegmentEntry) -> IndexError {
+    match file::check_footer(path, bytes, KIND_SEGMENT, FORMAT_VERSION, true) {
+        Err(e) => e,
+        Ok(_) => IndexError::corrupt(
+            path,
+            CorruptKind::LengthMismatch {
+                expected: entry.len,
+                actual: bytes.len() as u64,
+            },
+        ),
+    }
+}
+
+/// Checks that the footer's `checksum` is the one the manifest lists for the segment.
+pub(crate) fn check_listed(path: &Path, checksum: u64, entry: &SegmentEntry) -> Result<()> {
+    if checksum != entry.checksum {
         return Err(IndexError::corrupt(
             path,
             CorruptKind::NotTheListedFile {
                 expected: entry.checksum,
-                found: opened.checksum,
+                found: checksum,
             },
         ));
     }
-    let (head, used) = decode_head(&path, opened.payload(), manifest, entry)?;
-    Ok((opened, head, used, path))
+    Ok(())
 }
 
-/// Decodes the head at the start of a segment `payload` and checks it against the manifest
-/// and the segment's entry; returns it and the offset where the records start.
-fn decode_head(
+/// Decodes the head of a segment `payload` of format `version` and checks it against the
+/// manifest and the segment's entry; returns it and where the records are.
+pub(crate) fn head_of(
     path: &Path,
     payload: &[u8],
+    version: u32,
     manifest: &Manifest,
     entry: &SegmentEntry,
-) -> Result<(SegmentHead, usize)> {
-    let dim = manifest.dim;
-    let path = path.to_path_buf();
-    let (head, used): (SegmentHead, usize) = decode_bounded(payload).map_err(|e| {
-        IndexError::corrupt(&path, CorruptKind::Malformed(format!("segment head: {e}")))
-    })?;
-    let malformed = |msg: String| IndexError::corrupt(&path, CorruptKind::Malformed(msg));
-    if head.dim != dim {
+) -> Result<(SegmentHead, Rest)> {
+    let malformed = |msg: String| IndexError::corrupt(path, CorruptKind::Malformed(msg));
+    if version >= 5 {
+        let table = crate::mapped::parse(payload).map_err(malformed)?;
+        let head = crate::mapped::head(payload, &table).map_err(malformed)?;
+        check_head(path, &head, manifest, entry)?;
+        table
+            .check_block(manifest.dim as usize)
+            .map_err(malformed)?;
+        return Ok((head, Rest::Table(table)));
+    }
+    let (head, used): (SegmentHead, usize) =
+        decode_bounded(payload).map_err(|e| malformed(format!("segment head: {e}")))?;
+    check_head(path, &head, manifest, entry)?;
+    Ok((head, Rest::Bincode(used)))
+}
+
+/// Checks a segment's head against the manifest and the segment's entry.
+pub(crate) fn check_head(
+    path: &Path,
+    head: &SegmentHead,
+    manifest: &Manifest,
+    entry: &SegmentEntry,
+) -> Result<()> {
+    let malformed = |msg: String| IndexError::corrupt(path, CorruptKind::Malformed(msg));
+    if head.dim != manifest.dim {
         return Err(IndexError::DimensionMismatch {
-            path: path.clone(),
+            path: path.to_path_buf(),
             found: head.dim,
-            expected: dim,
+            expected: manifest.dim,
         });
     }
     if head.number != entry.number {
@@ -152,28 +190,40 @@ fn decode_head(
             head.number, entry.number
         )));
     }
-    if head.catalogue.len() as u64 != entry.shapes {
+    check_ids(path, head.catalogue.iter().map(|c| c.id), manifest, entry)
+}
+
+/// Checks the ids a segment lists: as many as its entry says, at least one, increasing, below
+/// the manifest's counter.
+pub(crate) fn check_ids(
+    path: &Path,
+    ids: impl ExactSizeIterator<Item = ShapeId>,
+    manifest: &Manifest,
+    entry: &SegmentEntry,
+) -> Result<()> {
+    let malformed = |msg: String| IndexError::corrupt(path, CorruptKind::Malformed(msg));
+    if ids.len() as u64 != entry.shapes {
         return Err(malformed(format!(
             "{} shapes in the file, the manifest says {}",
-            head.catalogue.len(),
+            ids.len(),
             entry.shapes
         )));
     }
-    if head.catalogue.is_empty() {
-        return Err(malformed("the segment holds no shape".into()));
+    let mut last: Option<ShapeId> = None;
+    for id in ids {
+        if last.is_some_and(|l| l >= id) {
+            return Err(malformed("shape ids are not increasing".into()));
+        }
+        last = Some(id);
     }
-    if !head.catalogue.windows(2).all(|w| w[0].id < w[1].id) {
-        return Err(malformed("shape ids are not increasing".into()));
+    match last {
+        None => Err(malformed("the segment holds no shape".into())),
+        Some(id) if id.0 >= manifest.next_shape_id => Err(malformed(format!(
+            "shape id {id} is beyond the manifest's counter {}",
+            manifest.next_shape_id
+        ))),
+        Some(_) => Ok(()),
     }
-    if let Some(c) = head.catalogue.last()
-        && c.id.0 >= manifest.next_shape_id
-    {
-        return Err(malformed(format!(
-            "shape id {} is beyond the manifest's counter {}",
-            c.id, manifest.next_shape_id
-        )));
-    }
-    Ok((head, used))
 }
 
 /// Reads only the head of a segment listed in `manifest` (all checksums are still verified).
@@ -194,10 +244,11 @@ pub fn read<const D: usize>(
             expected: dim_u32::<D>(),
         });
     }
-    let (opened, head, used, path) = open_checked(dir, manifest, entry)?;
+    let (opened, head, rest, path) = open_checked(dir, manifest, entry)?;
     let records = decode_records::<D>(
         &path,
-        &opened.payload()[used..],
+        opened.payload(),
+        rest,
         &head,
         Some(entry.components),
         opened.version,
@@ -205,18 +256,29 @@ pub fn read<const D: usize>(
     Ok(Segment { head, records })
 }
 
-/// Decodes the records that follow `head` in a segment payload (`rest`) and checks them
-/// against the head and the component count `expected` (the segment's entry's; `None` when
-/// there is no entry to check against), as format `version` stores them (formats 1 and 2
-/// without the parts' centre positions, 1 to 3 without the surface sample).
+/// Decodes the records of a segment `payload` (where `rest` says) and checks them against the
+/// head and the component count `expected` (the segment's entry's; `None` when there is no
+/// entry to check against), as format `version` stores them (formats 1 and 2 without the
+/// parts' centre positions, 1 to 3 without the surface sample, 5 record by record).
 fn decode_records<const D: usize>(
     path: &Path,
-    rest: &[u8],
+    payload: &[u8],
+    rest: Rest,
     head: &SegmentHead,
     expected: Option<u64>,
     version: u32,
 ) -> Result<Vec<ShapeRecord<D>>> {
     let malformed = |msg: String| IndexError::corrupt(path, CorruptKind::Malformed(msg));
+    let rest = match rest {
+        Rest::Table(table) => {
+            let records = (0..table.entries.len())
+                .map(|i| crate::mapped::record::<D>(payload, &table, i))
+                .collect::<std::result::Result<Vec<_>, String>>()
+                .map_err(malformed)?;
+            return check_records(path, records, head, expected);
+        }
+        Rest::Bincode(used) => &payload[used..],
+    };
     let decoded = if version <= 2 {
         decode_bounded::<Vec<ShapeRecordV2<D>>>(rest)
             .map(|(r, used)| (r.into_iter().map(ShapeRecord::from).collect(), used))
@@ -234,6 +296,18 @@ fn decode_records<const D: usize>(
             rest.len() - used2
         )));
     }
+    check_records(path, records, head, expected)
+}
+
+/// Checks decoded records against their segment's head (one per catalogue entry, with its
+/// path and hash, each valid) and the component count `expected`.
+fn check_records<const D: usize>(
+    path: &Path,
+    records: Vec<ShapeRecord<D>>,
+    head: &SegmentHead,
+    expected: Option<u64>,
+) -> Result<Vec<ShapeRecord<D>>> {
+    let malformed = |msg: String| IndexError::corrupt(path, CorruptKind::Malformed(msg));
     if records.len() != head.catalogue.len() {
         return Err(malformed(format!(
             "{} records for {} catalogue entries",
@@ -272,8 +346,8 @@ fn decode_records<const D: usize>(
 pub fn decode_unsealed<const D: usize>(payload: &[u8]) -> Result<Segment<D>> {
     let path = Path::new("fuzzed-segment");
     let malformed = |msg: String| IndexError::corrupt(path, CorruptKind::Malformed(msg));
-    let (head, _): (SegmentHead, usize) =
-        decode_bounded(payload).map_err(|e| malformed(format!("segment head: {e}")))?;
+    let table = crate::mapped::parse(payload).map_err(malformed)?;
+    let head = crate::mapped::head(payload, &table).map_err(malformed)?;
     let mut manifest = Manifest::empty(dim_u32::<D>());
     manifest.next_shape_id = head
         .catalogue
@@ -286,9 +360,9 @@ pub fn decode_unsealed<const D: usize>(payload: &[u8]) -> Result<Segment<D>> {
         shapes: head.catalogue.len() as u64,
         components: 0,
     };
-    let (head, used) = decode_head(path, payload, &manifest, &entry)?;
+    let (head, rest) = head_of(path, payload, FORMAT_VERSION, &manifest, &entry)?;
     // The component count is the one thing the head does not tell: not checked.
-    let records = decode_records::<D>(path, &payload[used..], &head, None, FORMAT_VERSION)?;
+    let records = decode_records::<D>(path, payload, rest, &head, None, FORMAT_VERSION)?;
     Ok(Segment { head, records })
 }
 
@@ -337,7 +411,8 @@ mod tests {
         for at in 0..n - 8 {
             for huge in [u64::MAX, 1 << 40, 1 << 33] {
                 let m = write_patched::<D>(dir.path(), &recs, |p| {
-                    p[at..at + 8].copy_from_slice(&huge.to_le_bytes())
+                    p[at..at + 8].copy_from_slice(&huge.to_le_bytes());
+                    crate::mapped::refresh_checksums(p, D);
                 });
                 // Some windows fall on values any bytes can hold (descriptor floats): those
                 // decode. What matters is that none panics or allocates its length.
@@ -350,10 +425,12 @@ mod tests {
             "only {failed} of {} patched files failed",
             3 * n
         );
-        // The catalogue's first path length (after dim, number, count and id): named in the
-        // message as a limit, not a failed allocation.
+        // The catalogue's first path length (after the prefix, the table, then dim, number,
+        // count and id): named in the message as a limit, not a failed allocation.
+        let at = crate::mapped::PREFIX_LEN + 2 * crate::mapped::ENTRY_LEN + 28;
         let m = write_patched::<D>(dir.path(), &recs, |p| {
-            p[28..36].copy_from_slice(&(1u64 << 50).to_le_bytes())
+            p[at..at + 8].copy_from_slice(&(1u64 << 50).to_le_bytes());
+            crate::mapped::refresh_checksums(p, D);
         });
         let e = read::<D>(dir.path(), &m, &m.segments[0]).unwrap_err();
         assert!(matches!(e, IndexError::Corrupt { .. }), "{e}");
@@ -407,36 +484,49 @@ mod tests {
         assert!(e.to_string().contains("not between 0 and 1"), "{e}");
     }
 
-    /// The segment size follows the byte layout documented in index/README.md at the workspace root exactly.
+    /// The segment size follows the byte layout documented in index/README.md at the workspace
+    /// root exactly.
     #[test]
     fn size_matches_documented_layout() {
         const D: usize = 5;
-        let recs = synthetic::records::<D>(9, 0..3);
+        let mut recs = synthetic::records::<D>(9, 0..3);
+        // one layout that is not symmetric, stored whole; the others as triangles
+        recs[2].layout[1] += 1.0;
         let ids = [ShapeId(4), ShapeId(5), ShapeId(6)];
         let (bytes, _) = encode::<D>(7, &ids, &recs).unwrap();
         let string = |s: &std::path::Path| 8 + s.to_str().unwrap().len();
-        let mut want = 4 + 8 + 8; // dim, number, catalogue count
+        let mut want = crate::mapped::PREFIX_LEN + 3 * crate::mapped::ENTRY_LEN;
+        want += 4 + 8 + 8; // head: dim, number, catalogue count
         for r in &recs {
             want += 8 + string(&r.canonical_path) + 16;
         }
-        want += 8; // record count
+        want = want.next_multiple_of(8); // zeros up to the descriptor block
+        let head_end = want;
         for r in &recs {
+            want += 4 * D * r.components.len();
+        }
+        for (i, r) in recs.iter().enumerate() {
             want += string(&r.path) + string(&r.canonical_path) + 16 + 4 + 4 + 8;
-            // component count, then per component: descriptor, centre vertex, area fraction,
-            // keypoints, then the centre, a tag byte and, when present, three f32
+            // part count, then per part: centre vertex, area fraction, keypoints, then the
+            // centre, a tag byte and, when present, three f32
             want += 8;
             for c in &r.components {
-                want += 4 * D + 4 + 4 + 4 + 1 + c.centre.map_or(0, |_| 12);
+                want += 4 + 4 + 4 + 1 + c.centre.map_or(0, |_| 12);
             }
-            want += 8 + 4 * r.layout.len();
+            // the layout: variant (u32), count, values (the triangle of the first two)
+            let m = r.components.len();
+            want += 4 + 8 + 4 * if i < 2 { m * (m - 1) / 2 } else { m * m };
             want += 8 + 12 * r.sample.len(); // the surface sample: count, then three f32 each
             want += 4; // boundary vertices
         }
         assert_eq!(bytes.len(), want + file::FOOTER_LEN);
-        // The head starts with dim (u32 LE) and the segment number (u64 LE).
-        assert_eq!(&bytes[0..4], &5u32.to_le_bytes());
-        assert_eq!(&bytes[4..12], &7u64.to_le_bytes());
-        assert_eq!(&bytes[12..20], &3u64.to_le_bytes());
-        assert_eq!(&bytes[20..28], &4u64.to_le_bytes());
+        // The prefix: shapes, head offset (after the table), descriptor block offset.
+        assert_eq!(&bytes[0..8], &3u64.to_le_bytes());
+        assert_eq!(&bytes[8..16], &(64u64 + 96).to_le_bytes());
+        assert_eq!(&bytes[24..32], &(head_end as u64).to_le_bytes());
+        // The table's first entry: the first id; the head: dim and segment number.
+        assert_eq!(&bytes[64..72], &4u64.to_le_bytes());
+        assert_eq!(&bytes[160..164], &5u32.to_le_bytes());
+        assert_eq!(&bytes[164..172], &7u64.to_le_bytes());
     }
 }

@@ -295,7 +295,7 @@ impl<const D: usize> IndexWriter<D> {
         let mut batch = Vec::new();
         let (mut read, mut duplicates) = (0, 0);
         for src in sources {
-            for shape in src.shapes() {
+            for shape in src.shapes()? {
                 read += 1;
                 let r = &shape.record;
                 let key = r.canonical_path.as_path();

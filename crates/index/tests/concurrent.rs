@@ -36,16 +36,16 @@ fn readers_see_consistent_snapshots_during_add() {
                     let r = IndexReader::<D>::open(&dir)
                         .unwrap_or_else(|e| panic!("reader {t}: open failed: {e}"));
                     opens += 1;
-                    let n = r.shapes().len() as u64;
+                    let n = r.shapes().unwrap().len() as u64;
                     assert_eq!(n % BATCH, 0, "partial batch visible");
                     assert!(r.generation() >= last_gen, "generation went back");
                     assert!(n >= last_n, "shapes went back");
                     last_gen = r.generation();
                     last_n = n;
-                    for (i, s) in r.shapes().iter().enumerate() {
+                    for (i, s) in r.shapes().unwrap().iter().enumerate() {
                         assert_eq!(s.record, synthetic::record::<D>(SEED, i as u64));
                     }
-                    let q = r.shapes()[0].record.components[1].descriptor;
+                    let q = r.shapes().unwrap()[0].record.components[1].descriptor;
                     let hits = r.nearest_components(&q, 10).unwrap();
                     let scan = r.nearest_linear(&q, 10);
                     assert_eq!(hits, scan);

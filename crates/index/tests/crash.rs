@@ -27,10 +27,10 @@ fn last_committed(out: &str) -> u64 {
 
 fn check_prefix(dir: &Path, at_least: u64) -> u64 {
     let r = IndexReader::<D>::open(dir).expect("index must open after a kill");
-    let n = r.shapes().len() as u64;
+    let n = r.shapes().unwrap().len() as u64;
     assert!(n >= at_least, "lost committed shapes: {n} < {at_least}");
     assert_eq!(n % BATCH, 0, "a partial batch is visible: {n} shapes");
-    for (i, s) in r.shapes().iter().enumerate() {
+    for (i, s) in r.shapes().unwrap().iter().enumerate() {
         assert_eq!(
             s.record,
             synthetic::record::<D>(SEED, i as u64),

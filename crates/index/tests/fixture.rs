@@ -29,7 +29,12 @@ fn open_fixture(version: u32) -> (IndexReader<D>, Vec<ShapeRecord<D>>) {
     let r = IndexReader::<D>::open(&dir).unwrap();
     let json = std::fs::read_to_string(dir.with_extension("json")).unwrap();
     let want: Vec<ShapeRecord<D>> = serde_json::from_str(&json).unwrap();
-    let got: Vec<_> = r.shapes().iter().map(|s| s.record.clone()).collect();
+    let got: Vec<_> = r
+        .shapes()
+        .unwrap()
+        .iter()
+        .map(|s| s.record.clone())
+        .collect();
     assert_eq!(got, want, "format {version}");
     assert_eq!(r.stats().segments, 2);
     assert!(verify::<D>(&dir).unwrap().is_ok());
@@ -80,6 +85,7 @@ fn older_formats_read_without_samples() {
         let r = IndexReader::<D>::open(fixture(v)).unwrap();
         assert!(
             r.shapes()
+                .unwrap()
                 .iter()
                 .all(|s| s.record.sample.is_empty() && s.record.boundary_vertices == 0),
             "format {v}"
@@ -95,9 +101,11 @@ fn older_formats_read_without_centres_and_take_new_segments() {
     for v in [1, 2] {
         let r = IndexReader::<D>::open(fixture(v)).unwrap();
         assert!(
-            r.shapes()
+            r.shapes().unwrap().iter().all(|s| s
+                .record
+                .components
                 .iter()
-                .all(|s| s.record.components.iter().all(|c| c.centre.is_none())),
+                .all(|c| c.centre.is_none())),
             "format {v}"
         );
     }
@@ -113,9 +121,10 @@ fn older_formats_read_without_centres_and_take_new_segments() {
     w.add_batch(synthetic::records::<D>(21, 10..12)).unwrap();
     drop(w);
     let r = IndexReader::<D>::open(&dir).unwrap();
-    assert_eq!(r.shapes().len(), 5);
+    assert_eq!(r.shapes().unwrap().len(), 5);
     let with_centres = r
         .shapes()
+        .unwrap()
         .iter()
         .filter(|s| s.record.components.iter().all(|c| c.centre.is_some()))
         .count();
@@ -152,7 +161,7 @@ fn format_v1_index_refuses_a_profile_but_stays_usable() {
         .unwrap();
     drop(w);
     let r = IndexReader::<D>::open(&dir).unwrap();
-    assert_eq!(r.shapes().len(), 2);
+    assert_eq!(r.shapes().unwrap().len(), 2);
     assert_eq!(r.profile(), "");
 }
 
@@ -175,4 +184,35 @@ fn write_fixture() {
         .collect();
     let json = serde_json::to_string_pretty(&live).unwrap();
     std::fs::write(dir.with_extension("json"), json + "\n").unwrap();
+}
+
+#[test]
+fn format_v5_fixture_still_opens() {
+    let (r, got) = open_fixture(5);
+    assert_eq!(r.profile(), FIXTURE_PROFILE);
+    // memory-mapped, the same records
+    let mapped = IndexReader::<D>::open_mapped(fixture(5)).unwrap();
+    let lazy: Vec<_> = mapped
+        .shapes()
+        .unwrap()
+        .into_iter()
+        .map(|s| s.record.clone())
+        .collect();
+    assert_eq!(lazy, got);
+}
+
+/// Older formats open memory-mapped too (their segments are read whole).
+#[test]
+fn older_formats_open_mapped() {
+    for version in 1..5 {
+        let (_, got) = open_fixture(version);
+        let mapped = IndexReader::<D>::open_mapped(fixture(version)).unwrap();
+        let lazy: Vec<_> = mapped
+            .shapes()
+            .unwrap()
+            .into_iter()
+            .map(|s| s.record.clone())
+            .collect();
+        assert_eq!(lazy, got, "format {version}");
+    }
 }

@@ -49,9 +49,29 @@ fn check(shapes: Vec<Vec<[f32; D]>>, queries: Vec<[f32; D]>, k: usize) {
         assert_eq!(dt, ds, "query {q:?}");
         // Every reported distance is the true one for the reported component.
         for m in &tree {
-            let d = r.get(m.shape).unwrap().components[m.component].descriptor;
+            let d = r.get(m.shape).unwrap().unwrap().components[m.component].descriptor;
             assert_eq!(m.distance_sq, keycomp_index::squared_distance(q, &d));
         }
+    }
+    // A memory-mapped snapshot, whose search reads the descriptors in place, finds the same,
+    // exactly and approximately.
+    let mapped = IndexReader::<D>::open_mapped(tmp.path()).unwrap();
+    assert_eq!(mapped.component_count(), r.component_count());
+    let approx = IndexReader::<D>::open(tmp.path())
+        .unwrap()
+        .with_search_mode(keycomp_index::SearchMode::Approximate);
+    let mapped_approx = IndexReader::<D>::open_mapped(tmp.path())
+        .unwrap()
+        .with_search_mode(keycomp_index::SearchMode::Approximate);
+    for q in &queries {
+        assert_eq!(
+            mapped.nearest_components(q, k).unwrap(),
+            r.nearest_components(q, k).unwrap()
+        );
+        assert_eq!(
+            mapped_approx.nearest_components(q, k).unwrap(),
+            approx.nearest_components(q, k).unwrap()
+        );
     }
 }
 

@@ -18,7 +18,12 @@ fn index(dir: &Path, profile: &str, records: Vec<ShapeRecord<D>>) -> IndexReader
 }
 
 fn sorted(r: &IndexReader<D>) -> Vec<ShapeRecord<D>> {
-    let mut v: Vec<_> = r.shapes().iter().map(|s| s.record.clone()).collect();
+    let mut v: Vec<_> = r
+        .shapes()
+        .unwrap()
+        .iter()
+        .map(|s| s.record.clone())
+        .collect();
     v.sort_by(|a, b| a.canonical_path.cmp(&b.canonical_path));
     v
 }

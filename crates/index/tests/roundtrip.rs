@@ -17,7 +17,12 @@ fn records(range: std::ops::Range<u64>) -> Vec<ShapeRecord<D>> {
 
 fn live_records(dir: &Path) -> Vec<ShapeRecord<D>> {
     let r = IndexReader::<D>::open(dir).unwrap();
-    let mut v: Vec<_> = r.shapes().iter().map(|s| s.record.clone()).collect();
+    let mut v: Vec<_> = r
+        .shapes()
+        .unwrap()
+        .iter()
+        .map(|s| s.record.clone())
+        .collect();
     v.sort_by(|a, b| a.canonical_path.cmp(&b.canonical_path));
     v
 }
@@ -35,11 +40,11 @@ fn add_reopen_get_identical_records() {
     drop(w);
 
     let r = IndexReader::<D>::open(&dir).unwrap();
-    assert_eq!(r.shapes().len(), 35);
+    assert_eq!(r.shapes().unwrap().len(), 35);
     let expected = records(0..35);
-    for (s, e) in r.shapes().iter().zip(&expected) {
+    for (s, e) in r.shapes().unwrap().iter().zip(&expected) {
         assert_eq!(&s.record, e);
-        assert_eq!(r.get(s.id), Some(e));
+        assert_eq!(r.get(s.id).unwrap(), Some(e));
     }
     let st = r.stats();
     assert_eq!(st.shapes, 35);
@@ -49,7 +54,7 @@ fn add_reopen_get_identical_records() {
         st.components,
         expected.iter().map(|r| r.components.len()).sum::<usize>()
     );
-    assert!(r.find_path(&expected[4].canonical_path).is_some());
+    assert!(r.find_path(&expected[4].canonical_path).unwrap().is_some());
     let rep = verify::<D>(&dir).unwrap();
     assert!(rep.is_ok(), "{:?}", rep.problems);
     assert!(rep.leftovers.is_empty());
@@ -213,7 +218,7 @@ fn empty_and_absent_indexes() {
     assert!(e.to_string().contains("nope"));
     drop(IndexWriter::<D>::create_or_open(tmp.path().join("new")).unwrap());
     let r = IndexReader::<D>::open(tmp.path().join("new")).unwrap();
-    assert!(r.shapes().is_empty());
+    assert!(r.shapes().unwrap().is_empty());
     assert!(r.nearest_components(&[0.5; D], 3).unwrap().is_empty());
 }
 

@@ -3,6 +3,8 @@
 //! is updated (new shapes put in their nearest cells) rather than rebuilt, until the collection
 //! has grown too much for its centroids; a damaged one is rebuilt.
 
+#![allow(clippy::unwrap_used)] // helpers outside #[test] fns, in a test crate
+
 use keycomp_index::{
     IndexReader, IndexWriter, SEARCH_CACHE_NAME, SearchMode, SearchSource, synthetic, verify,
 };
@@ -12,7 +14,7 @@ const D: usize = 8;
 fn answers(reader: &IndexReader<D>) -> Vec<Vec<(u64, usize)>> {
     (0..20)
         .map(|i| {
-            let q = reader.shapes()[i * 7].record.components[0].descriptor;
+            let q = reader.shapes().unwrap()[i * 7].record.components[0].descriptor;
             reader
                 .nearest_components(&q, 10)
                 .expect("search")
@@ -51,7 +53,7 @@ fn the_cache_is_written_reused_and_rebuilt_when_stale_or_damaged() {
     // found by its own descriptor; the next reader reads the updated cache as it is
     w.add_batch(synthetic::records(4, 400..450)).expect("add");
     let third = open(dir);
-    let added: usize = third.shapes()[400..]
+    let added: usize = third.shapes().unwrap()[400..]
         .iter()
         .map(|s| s.record.components.len())
         .sum();
@@ -59,14 +61,14 @@ fn the_cache_is_written_reused_and_rebuilt_when_stale_or_damaged() {
         third.search_source(),
         SearchSource::CacheUpdated { assigned: added }
     );
-    for s in &third.shapes()[400..] {
+    for s in &third.shapes().unwrap()[400..] {
         let q = s.record.components[0].descriptor;
         let m = third.nearest_components(&q, 1).expect("search")[0];
         assert_eq!((m.shape, m.distance_sq), (s.id, 0.0));
     }
     assert_eq!(open(dir).search_source(), SearchSource::Cache);
     // after a remove: updated, nothing assigned
-    let gone = third.shapes()[3].record.canonical_path.clone();
+    let gone = third.shapes().unwrap()[3].record.canonical_path.clone();
     assert_eq!(w.remove(&[gone]).expect("remove"), 1);
     assert_eq!(
         open(dir).search_source(),

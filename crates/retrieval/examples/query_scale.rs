@@ -58,7 +58,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let source: Option<Vec<keycomp_index::ShapeRecord<DIM>>> = match std::env::args().nth(2) {
         Some(dir) => Some(
             IndexReader::<DIM>::open(&dir)?
-                .shapes()
+                .shapes()?
                 .iter()
                 .map(|s| s.record.clone())
                 .collect(),
@@ -126,16 +126,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let mut opens = Vec::new();
         for _ in 0..5 {
             let t = Instant::now();
-            let r = IndexReader::<DIM>::open(dir.path())?;
+            let r = IndexReader::<DIM>::open_mapped(dir.path())?;
             opens.push(t.elapsed().as_secs_f64() * 1e3);
             drop(r);
         }
-        let reader = IndexReader::<DIM>::open(dir.path())?;
-        let exact = IndexReader::<DIM>::open(dir.path())?.with_search_mode(SearchMode::Exact);
+        let reader = IndexReader::<DIM>::open_mapped(dir.path())?;
+        let exact =
+            IndexReader::<DIM>::open_mapped(dir.path())?.with_search_mode(SearchMode::Exact);
+        let ids: Vec<keycomp_index::ShapeId> = reader.ids().collect();
         let mut rng = ChaCha8Rng::seed_from_u64(1);
         let make_query = |rng: &mut ChaCha8Rng| {
-            let id = reader.shapes()[rng.random_range(0..reader.shapes().len())].id;
-            let rec = reader.get(id).cloned();
+            let id = ids[rng.random_range(0..ids.len())];
+            let rec = reader.get(id).ok().flatten().cloned();
             rec.map(|rec| {
                 let descs: Vec<[f32; DIM]> = rec
                     .components
@@ -156,7 +158,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let exact_build = exact.prepare_search().as_secs_f64() * 1e3;
         let mb = reader.search_bytes() as f64 / 1e6;
         // a second process's first search reads the structure the first one cached
-        let again = IndexReader::<DIM>::open(dir.path())?;
+        let again = IndexReader::<DIM>::open_mapped(dir.path())?;
         let cached_ms = again.prepare_search().as_secs_f64() * 1e3;
         let cached = if again.search_was_cached() {
             format!("{cached_ms:.0}")
@@ -234,7 +236,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         drop((reader, exact));
         let more = (n / 100).max(1);
         IndexWriter::<DIM>::create_or_open(dir.path())?.add_batch(records(n..n + more))?;
-        let after = IndexReader::<DIM>::open(dir.path())?;
+        let after = IndexReader::<DIM>::open_mapped(dir.path())?;
         let after_ms = after.prepare_search().as_secs_f64() * 1e3;
         let updated = match after.search_source() {
             keycomp_index::SearchSource::Built => format!("{after_ms:.0} (built)"),

@@ -89,7 +89,7 @@ pub fn rank(
         reader.nearest_components_batch(query.descriptors, CANDIDATES_PER_COMPONENT)?;
     let votes = votes(&neighbours, params);
     let weights = if params.idf {
-        idf_weights(&neighbours, reader.shapes().len(), params)
+        idf_weights(&neighbours, reader.len(), params)
     } else {
         Vec::new()
     };
@@ -97,19 +97,17 @@ pub fn rank(
     let mut by_vote: Vec<(ShapeId, f64)> = votes.into_iter().collect();
     by_vote.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
     let rest = by_vote.split_off(by_vote.len().min(MATCHED_CANDIDATES));
-    let mut ranked = match_candidates(reader, query, &by_vote, k, params, &weights);
-    ranked.extend(
-        rest.into_iter()
-            .take(k.saturating_sub(ranked.len()))
-            .filter_map(|(id, _)| {
-                Some(Ranked {
-                    id,
-                    path: reader.get(id)?.path.clone(),
-                    result: ShapeMatch::none(),
-                    hypothesis: 0,
-                })
-            }),
-    );
+    let mut ranked = match_candidates(reader, query, &by_vote, k, params, &weights)?;
+    for (id, _) in rest.into_iter().take(k.saturating_sub(ranked.len())) {
+        if let Some(rec) = reader.get(id)? {
+            ranked.push(Ranked {
+                id,
+                path: rec.path.clone(),
+                result: ShapeMatch::none(),
+                hypothesis: 0,
+            });
+        }
+    }
     ranked.truncate(k);
     Ok(ranked)
 }
@@ -175,7 +173,7 @@ fn match_candidates(
     k: usize,
     params: &MatchParams,
     weights: &[f64],
-) -> Vec<Ranked> {
+) -> Result<Vec<Ranked>, IndexError> {
     struct Candidate<'a> {
         id: ShapeId,
         rec: &'a keycomp_index::ShapeRecord<DIM>,
@@ -186,17 +184,19 @@ fn match_candidates(
         bound: f64,
     }
     let mq = query.descriptors.len();
-    let mut candidates: Vec<Candidate> = by_vote
+    let candidates: Vec<Option<Candidate>> = by_vote
         .par_iter()
-        .filter_map(|&(id, _)| {
-            let rec = reader.get(id)?;
+        .map(|&(id, _)| {
+            let Some(rec) = reader.get(id)? else {
+                return Ok(None);
+            };
             let descriptors: Vec<Descriptor> =
                 rec.components.iter().map(|c| c.descriptor).collect();
             let d = crate::distances(query.descriptors, &descriptors);
             let bound = crate::score_bound(mq, descriptors.len(), &d, params, weights);
             let areas = record_areas(rec, params);
             let centres = record_centres(rec, params);
-            Some(Candidate {
+            Ok(Some(Candidate {
                 id,
                 rec,
                 descriptors,
@@ -204,9 +204,10 @@ fn match_candidates(
                 centres,
                 d,
                 bound,
-            })
+            }))
         })
-        .collect();
+        .collect::<Result<_, IndexError>>()?;
+    let mut candidates: Vec<Candidate> = candidates.into_iter().flatten().collect();
     candidates.sort_by(|a, b| b.bound.total_cmp(&a.bound).then(a.id.cmp(&b.id)));
     fn view<'c>(c: &'c Candidate, params: &MatchParams) -> ShapeView<'c> {
         ShapeView {
@@ -291,7 +292,7 @@ fn match_candidates(
         }
         by_score(&mut ranked);
     }
-    ranked
+    Ok(ranked
         .into_iter()
         .map(|(i, (result, _))| Ranked {
             id: candidates[i].id,
@@ -299,7 +300,7 @@ fn match_candidates(
             result,
             hypothesis: 0,
         })
-        .collect()
+        .collect())
 }
 
 /// The part areas of an indexed shape as [`ShapeView::areas`] wants them: area fractions in

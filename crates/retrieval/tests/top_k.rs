@@ -84,7 +84,7 @@ fn pruned_top_k_equals_the_full_ranking() {
     let params = MatchParams::default();
     let mut pruned_any = false;
     for q in 0..12 {
-        let src = reader.shapes()[q * 7].record.clone();
+        let src = reader.shapes().unwrap()[q * 7].record.clone();
         let descs: Vec<Descriptor> = src
             .components
             .iter()
@@ -124,8 +124,8 @@ fn hypotheses_rank_each_shape_by_its_best_score() {
     for q in 0..6 {
         // two descriptions of one query: the parts of two different shapes
         let srcs = [
-            reader.shapes()[q * 5].record.clone(),
-            reader.shapes()[q * 5 + 2].record.clone(),
+            reader.shapes().unwrap()[q * 5].record.clone(),
+            reader.shapes().unwrap()[q * 5 + 2].record.clone(),
         ];
         let descs: Vec<Vec<Descriptor>> = srcs
             .iter()
