@@ -1,16 +1,22 @@
 //! Approximate nearest-neighbour search over component descriptors: an inverted file with a
-//! two-level k-means quantiser (IVF; H. Jégou, M. Douze and C. Schmid, "Product quantization
-//! for nearest neighbor search", IEEE TPAMI 33(1), 2011, Section IV, without the product
-//! quantisation: the cells hold the descriptors themselves).
+//! two-level k-means quantiser and product-quantised residuals (IVFADC; H. Jégou, M. Douze
+//! and C. Schmid, "Product quantization for nearest neighbor search", IEEE TPAMI 33(1), 2011,
+//! Sections II–IV).
 //!
 //! The descriptors are split into `c` coarse cells by k-means, each coarse cell into `c` fine
 //! cells by k-means over its members, with `c ≈ √(n / CELL_SIZE)` so that a fine cell holds about
-//! [`CELL_SIZE`] descriptors. Every descriptor is stored once, in its fine cell, contiguously. A
-//! query ranks the coarse centroids, takes the fine cells of its [`COARSE_PROBES`] nearest
-//! coarse cells, and scans the [`FINE_PROBES`] fine cells with the nearest centroids exactly:
-//! about `FINE_PROBES × CELL_SIZE` distances instead of `n`. A true neighbour is missed only
-//! when it lies in a cell whose centroid is not among those, so recall is measured, not
-//! guaranteed (BENCHMARKS.md, "Candidate search").
+//! [`CELL_SIZE`] descriptors. Each descriptor is stored once, in its fine cell, as a code of
+//! [`PQ_SUBSPACES`] bytes: its residual from the fine centroid, cut into that many runs of
+//! consecutive values, each run replaced by the nearest of 256 centroids fitted by k-means on
+//! the residuals' runs (16 bytes instead of 256 for 64 values). A query ranks the coarse
+//! centroids, takes the fine cells of its [`COARSE_PROBES`] nearest coarse cells, and scans the
+//! [`FINE_PROBES`] fine cells with the nearest centroids: each code's distance to the query is
+//! the sum of [`PQ_SUBSPACES`] table entries (the asymmetric distance, ADC), about
+//! `FINE_PROBES × CELL_SIZE` codes instead of `n` descriptors; the [`RERANK`]`× k` nearest by
+//! that distance are then measured exactly on the descriptors themselves, read in place. A
+//! true neighbour is missed when it lies in a cell whose centroid is not among those, or when
+//! its code puts it beyond the re-ranked ones, so recall is measured, not guaranteed
+//! (BENCHMARKS.md, "Candidate search").
 //!
 //! Everything is deterministic: initial centroids are evenly spaced sample points, and every
 //! sum is taken in a fixed order whatever the thread count.
@@ -27,6 +33,15 @@ pub const FINE_PROBES: usize = 12;
 const ITERATIONS: usize = 8;
 /// Sample points per centroid that k-means is fitted on.
 const SAMPLE_PER_CENTROID: usize = 48;
+/// Bytes of a code: runs of consecutive values each coded by one byte (fewer when the
+/// descriptor has fewer values).
+pub const PQ_SUBSPACES: usize = 16;
+/// Centroids of each run's quantiser (one byte).
+const PQ_CENTROIDS: usize = 256;
+/// Residuals the runs' quantisers are fitted on, at most.
+const PQ_SAMPLE: usize = 65_536;
+/// Candidates measured exactly per search, as a multiple of the neighbours asked for.
+pub const RERANK: usize = 4;
 
 /// Squared Euclidean distance over eight partial sums, so that the loop vectorises (the
 /// summation order differs from [`crate::squared_distance`]: results agree to rounding).
@@ -91,38 +106,59 @@ fn nearest(centroids: &[f32], d: usize, p: &[f32]) -> usize {
 /// Centroids start at evenly spaced members of an evenly spaced sample; an emptied cluster keeps
 /// its centroid.
 fn kmeans(points: &impl Points, d: usize, members: &[u32], k: usize) -> Vec<f32> {
+    kmeans_with(points, d, members, k, k * SAMPLE_PER_CENTROID, true)
+}
+
+/// [`kmeans`] fitted on about `sample_size` evenly spaced members, its iterations in parallel
+/// when `parallel` (the caller's own loop may be the parallel one).
+fn kmeans_with(
+    points: &impl Points,
+    d: usize,
+    members: &[u32],
+    k: usize,
+    sample_size: usize,
+    parallel: bool,
+) -> Vec<f32> {
     let k = k.clamp(1, members.len().max(1));
-    let step = (members.len() / (k * SAMPLE_PER_CENTROID)).max(1);
+    let step = (members.len() / sample_size.max(k)).max(1);
     let sample: Vec<u32> = members.iter().step_by(step).copied().collect();
     let point = |i: u32| points.point(i);
     let mut centroids: Vec<f32> = (0..k)
         .flat_map(|j| point(sample[j * sample.len() / k]).to_vec())
         .collect();
     for _ in 0..ITERATIONS {
-        let assigned: Vec<usize> = sample
-            .par_iter()
-            .map(|&i| nearest(&centroids, d, point(i)))
-            .collect();
+        let assigned: Vec<usize> = if parallel {
+            sample
+                .par_iter()
+                .map(|&i| nearest(&centroids, d, point(i)))
+                .collect()
+        } else {
+            sample
+                .iter()
+                .map(|&i| nearest(&centroids, d, point(i)))
+                .collect()
+        };
         let mut of: Vec<Vec<u32>> = vec![Vec::new(); k];
         for (&i, &c) in sample.iter().zip(&assigned) {
             of[c].push(i);
         }
-        let next: Vec<Vec<f32>> = of
-            .par_iter()
-            .enumerate()
-            .map(|(j, pts)| {
-                if pts.is_empty() {
-                    return centroids[j * d..(j + 1) * d].to_vec();
+        let mean = |(j, pts): (usize, &Vec<u32>)| -> Vec<f32> {
+            if pts.is_empty() {
+                return centroids[j * d..(j + 1) * d].to_vec();
+            }
+            let mut sum = vec![0f64; d];
+            for &i in pts {
+                for (s, v) in sum.iter_mut().zip(point(i)) {
+                    *s += f64::from(*v);
                 }
-                let mut sum = vec![0f64; d];
-                for &i in pts {
-                    for (s, v) in sum.iter_mut().zip(point(i)) {
-                        *s += f64::from(*v);
-                    }
-                }
-                sum.iter().map(|s| (s / pts.len() as f64) as f32).collect()
-            })
-            .collect();
+            }
+            sum.iter().map(|s| (s / pts.len() as f64) as f32).collect()
+        };
+        let next: Vec<Vec<f32>> = if parallel {
+            of.par_iter().enumerate().map(mean).collect()
+        } else {
+            of.iter().enumerate().map(mean).collect()
+        };
         centroids = next.concat();
     }
     centroids
@@ -152,6 +188,8 @@ struct SegmentCells {
     starts: Vec<u32>,
     /// Global fine cell of each component of each record held.
     cells: Vec<u32>,
+    /// The code of each component of each record held, in the order of `cells`.
+    codes: Vec<u8>,
 }
 
 /// What a cache file holds.
@@ -164,6 +202,7 @@ struct Stored {
     trained: u64,
     coarse: Vec<f32>,
     fine: Vec<Vec<f32>>,
+    pq: Pq,
     segments: Vec<SegmentCells>,
 }
 
@@ -205,10 +244,95 @@ pub(crate) struct Ivf {
     ranges: Vec<Vec<(u32, u32)>>,
     /// Item ids (positions in the reader's component list), grouped by fine cell.
     items: Vec<u32>,
-    /// The descriptors of `items`, in the same order, flat.
-    data: Vec<f32>,
+    /// The product quantiser of the residuals.
+    pq: Pq,
+    /// The codes of `items`, in the same order, `pq.bytes()` each.
+    codes: Vec<u8>,
     /// Items the centroids were fitted on.
     trained: usize,
+}
+
+/// A product quantiser (Jégou et al. 2011, Section II): `bounds.len() - 1` runs of
+/// consecutive values, run `j` holding values `bounds[j]..bounds[j + 1]`, each with up to
+/// [`PQ_CENTROIDS`] centroids.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub(crate) struct Pq {
+    bounds: Vec<usize>,
+    /// Per run: its centroids, flat (`bounds[j + 1] - bounds[j]` values each).
+    centroids: Vec<Vec<f32>>,
+}
+
+impl Pq {
+    /// Fits the quantiser of vectors of `d` values on `sample` (flat).
+    fn train(sample: &[f32], d: usize) -> Pq {
+        let m = PQ_SUBSPACES.min(d).max(1);
+        let bounds: Vec<usize> = (0..=m).map(|j| j * d / m).collect();
+        let n = sample.len() / d.max(1);
+        let centroids = (0..m)
+            .into_par_iter()
+            .map(|j| {
+                let (a, b) = (bounds[j], bounds[j + 1]);
+                let w = b - a;
+                let runs: Vec<f32> = sample
+                    .chunks_exact(d)
+                    .flat_map(|v| v[a..b].iter().copied())
+                    .collect();
+                let flat = Flat { data: &runs, d: w };
+                let all: Vec<u32> = (0..n as u32).collect();
+                kmeans_with(&flat, w, &all, PQ_CENTROIDS, n, false)
+            })
+            .collect();
+        Pq { bounds, centroids }
+    }
+
+    /// Bytes per code.
+    fn bytes(&self) -> usize {
+        self.bounds.len().saturating_sub(1)
+    }
+
+    /// Whether the quantiser fits vectors of `d` values, every centroid index fitting a byte.
+    fn fits(&self, d: usize) -> bool {
+        let m = self.bytes();
+        m >= 1
+            && self.bounds.first() == Some(&0)
+            && self.bounds.last() == Some(&d)
+            && self.bounds.windows(2).all(|w| w[0] < w[1])
+            && self.centroids.len() == m
+            && self.centroids.iter().enumerate().all(|(j, c)| {
+                let w = self.bounds[j + 1] - self.bounds[j];
+                !c.is_empty() && c.len().is_multiple_of(w) && c.len() / w <= PQ_CENTROIDS
+            })
+    }
+
+    /// The code of `r` into `out` (`bytes()` long).
+    fn encode(&self, r: &[f32], out: &mut [u8]) {
+        for (j, o) in out.iter_mut().enumerate() {
+            let (a, b) = (self.bounds[j], self.bounds[j + 1]);
+            *o = nearest(&self.centroids[j], b - a, &r[a..b]) as u8;
+        }
+    }
+
+    /// The distance table of residual `r`: entry `j * 256 + c` is the squared distance of
+    /// run `j` of `r` to centroid `c` of run `j` (+∞ past the run's centroids).
+    fn table(&self, r: &[f32]) -> Vec<f32> {
+        let mut t = vec![f32::INFINITY; self.bytes() * PQ_CENTROIDS];
+        for (j, c) in self.centroids.iter().enumerate() {
+            let (a, b) = (self.bounds[j], self.bounds[j + 1]);
+            for (k, cent) in c.chunks_exact(b - a).enumerate() {
+                t[j * PQ_CENTROIDS + k] = distance_sq(cent, &r[a..b]);
+            }
+        }
+        t
+    }
+}
+
+/// The asymmetric distance of `code` under distance table `t` ([`Pq::table`]).
+#[inline]
+fn adc(t: &[f32], code: &[u8]) -> f32 {
+    code.iter()
+        .enumerate()
+        .map(|(j, &c)| t[j * PQ_CENTROIDS + c as usize])
+        .sum()
 }
 
 impl Ivf {
@@ -252,8 +376,38 @@ impl Ivf {
             base += (centroids.len() / d) as u32;
             fine.push(centroids);
         }
-        Ivf::from_parts(points, d, coarse, fine, &cell, n)
+        // the product quantiser, fitted on the residuals of an evenly spaced sample
+        let flat_fine = fine.concat();
+        let residual = |i: u32| -> Vec<f32> {
+            let g = cell[i as usize] as usize;
+            let c = &flat_fine[g * d..(g + 1) * d];
+            point(i).iter().zip(c).map(|(v, c)| v - c).collect()
+        };
+        let step = (n / PQ_SAMPLE).max(1);
+        let sample: Vec<f32> = (0..n as u32).step_by(step).flat_map(&residual).collect();
+        let pq = Pq::train(&sample, d);
+        let m = pq.bytes();
+        let mut codes = vec![0u8; n * m];
+        codes
+            .par_chunks_mut(m)
+            .enumerate()
+            .for_each(|(i, out)| pq.encode(&residual(i as u32), out));
+        Ivf::from_parts(n, d, coarse, fine, pq, &cell, &codes, n)
             .expect("cells computed from the centroids are in range")
+    }
+
+    /// The global fine cell `g`'s centroid, if there is one.
+    fn fine_centroid(&self, g: usize) -> Option<&[f32]> {
+        let d = self.d;
+        let mut g = g;
+        for f in &self.fine {
+            let cells = f.len() / d;
+            if g < cells {
+                return f.get(g * d..(g + 1) * d);
+            }
+            g -= cells;
+        }
+        None
     }
 
     /// The global fine cell nearest `p`: in the nearest coarse cell that has fine cells, the
@@ -280,6 +434,17 @@ impl Ivf {
         u32::try_from(base + nearest(&self.fine[cell], d, p)).ok()
     }
 
+    /// Each item's code, in item order.
+    fn item_codes(&self) -> Vec<u8> {
+        let m = self.pq.bytes();
+        let mut out = vec![0u8; self.items.len() * m];
+        for (j, &i) in self.items.iter().enumerate() {
+            out[i as usize * m..(i as usize + 1) * m]
+                .copy_from_slice(&self.codes[j * m..(j + 1) * m]);
+        }
+        out
+    }
+
     /// Each item's global fine cell.
     fn cells(&self) -> Vec<u32> {
         let mut cell = vec![0u32; self.items.len()];
@@ -295,20 +460,26 @@ impl Ivf {
         cell
     }
 
-    /// The inverted file of `points` with these centroids, item `i` in global fine cell
-    /// `cell[i]` (fine cells numbered coarse cell by coarse cell). Each cell lists its items in
-    /// increasing order. `None` when the parts do not fit together (a damaged cache).
+    /// The inverted file of `n` items with these centroids and quantiser, item `i` in global
+    /// fine cell `cell[i]` (fine cells numbered coarse cell by coarse cell) with code
+    /// `codes[i * m..(i + 1) * m]`. Each cell lists its items in increasing order. `None` when
+    /// the parts do not fit together (a damaged cache).
+    #[allow(clippy::too_many_arguments)] // the parts of the structure, each checked here
     fn from_parts(
-        points: &impl Points,
+        n: usize,
         d: usize,
         coarse: Vec<f32>,
         fine: Vec<Vec<f32>>,
+        pq: Pq,
         cell: &[u32],
+        codes: &[u8],
         trained: usize,
     ) -> Option<Ivf> {
-        let n = points.len();
+        let m = pq.bytes();
         if d == 0
             || cell.len() != n
+            || codes.len() != n * m
+            || !pq.fits(d)
             || !coarse.len().is_multiple_of(d)
             || coarse.len() / d != fine.len()
             || fine.iter().any(|f| !f.len().is_multiple_of(d))
@@ -339,9 +510,19 @@ impl Ivf {
             g += r.len();
             ranges.push(r);
         }
-        let mut data = Vec::with_capacity(n * d);
+        let mut ordered = Vec::with_capacity(n * m);
         for &i in &items {
-            data.extend_from_slice(points.point(i));
+            let code = &codes[i as usize * m..(i as usize + 1) * m];
+            // a code must name centroids the quantiser has (a damaged cache may not)
+            if code
+                .iter()
+                .zip(&pq.centroids)
+                .zip(pq.bounds.windows(2))
+                .any(|((&c, cs), w)| c as usize >= cs.len() / (w[1] - w[0]))
+            {
+                return None;
+            }
+            ordered.extend_from_slice(code);
         }
         Some(Ivf {
             d,
@@ -349,7 +530,8 @@ impl Ivf {
             fine,
             ranges,
             items,
-            data,
+            pq,
+            codes: ordered,
             trained,
         })
     }
@@ -359,17 +541,20 @@ impl Ivf {
     /// by segment, sealed like the index's files.
     pub(crate) fn to_cache(&self, key: u64, origins: &[Origin]) -> Vec<u8> {
         let cell = self.cells();
-        // per segment: (record position, its parts' cells)
-        type Records<'a> = Vec<(u32, &'a [u32])>;
+        let codes = self.item_codes();
+        let m = self.pq.bytes();
+        // per segment: (record position, its parts' cells, their codes)
+        type Records<'a> = Vec<(u32, &'a [u32], &'a [u8])>;
         let mut by_segment: std::collections::BTreeMap<(u64, u64, u64), Records> =
             std::collections::BTreeMap::new();
         let mut first = 0usize;
         for o in origins {
             let end = (first + o.components as usize).min(cell.len());
-            by_segment
-                .entry(o.segment)
-                .or_default()
-                .push((o.position, &cell[first..end]));
+            by_segment.entry(o.segment).or_default().push((
+                o.position,
+                &cell[first..end],
+                &codes[first * m..end * m],
+            ));
             first = end;
         }
         let segments = by_segment
@@ -378,9 +563,11 @@ impl Ivf {
                 records.sort_by_key(|r| r.0);
                 let mut starts = Vec::with_capacity(records.len() + 1);
                 let mut cells = Vec::new();
-                for (_, c) in &records {
+                let mut codes = Vec::new();
+                for (_, c, k) in &records {
                     starts.push(cells.len() as u32);
                     cells.extend_from_slice(c);
+                    codes.extend_from_slice(k);
                 }
                 starts.push(cells.len() as u32);
                 SegmentCells {
@@ -388,6 +575,7 @@ impl Ivf {
                     positions: records.iter().map(|r| r.0).collect(),
                     starts,
                     cells,
+                    codes,
                 }
             })
             .collect();
@@ -397,6 +585,7 @@ impl Ivf {
             trained: self.trained as u64,
             coarse: self.coarse.clone(),
             fine: self.fine.clone(),
+            pq: self.pq.clone(),
             segments,
         };
         let payload = bincode::serde::encode_to_vec(&stored, crate::manifest::bincode_config())
@@ -450,29 +639,37 @@ impl Ivf {
         }
         // the centroids alone, to assign the items the cache does not hold
         let mut ivf = Ivf::from_parts(
-            &Flat { data: &[], d },
+            0,
             d,
             stored.coarse,
             stored.fine,
+            stored.pq,
+            &[],
             &[],
             trained,
         )?;
+        let m = ivf.pq.bytes();
         let segments: std::collections::HashMap<(u64, u64, u64), &SegmentCells> =
             stored.segments.iter().map(|s| (s.segment, s)).collect();
         let mut cell = Vec::with_capacity(n);
+        let mut codes: Vec<u8> = Vec::with_capacity(n.saturating_mul(m));
         let mut fresh: Vec<u32> = Vec::new();
         for o in origins {
             let held = segments.get(&o.segment).and_then(|s| {
                 let i = s.positions.binary_search(&o.position).ok()?;
                 let (a, b) = (*s.starts.get(i)? as usize, *s.starts.get(i + 1)? as usize);
-                s.cells.get(a..b)
+                Some((s.cells.get(a..b)?, s.codes.get(a * m..b * m)?))
             });
             match held {
-                Some(c) if c.len() == o.components as usize => cell.extend_from_slice(c),
+                Some((c, k)) if c.len() == o.components as usize => {
+                    cell.extend_from_slice(c);
+                    codes.extend_from_slice(k);
+                }
                 _ => {
                     for _ in 0..o.components {
                         fresh.push(u32::try_from(cell.len()).ok()?);
                         cell.push(u32::MAX);
+                        codes.extend(std::iter::repeat_n(0, m));
                     }
                 }
             }
@@ -480,17 +677,27 @@ impl Ivf {
         if cell.len() != n {
             return None;
         }
-        let cells: Vec<u32> = fresh
+        let placed: Vec<(u32, Vec<u8>)> = fresh
             .par_iter()
-            .map(|&i| ivf.assign(points.point(i)))
+            .map(|&i| {
+                let p = points.point(i);
+                let g = ivf.assign(p)?;
+                let c = ivf.fine_centroid(g as usize)?;
+                let r: Vec<f32> = p.iter().zip(c).map(|(v, c)| v - c).collect();
+                let mut code = vec![0u8; m];
+                ivf.pq.encode(&r, &mut code);
+                Some((g, code))
+            })
             .collect::<Option<_>>()?;
-        for (&i, c) in fresh.iter().zip(cells) {
-            cell[i as usize] = c;
+        for (&i, (g, code)) in fresh.iter().zip(placed) {
+            cell[i as usize] = g;
+            codes[i as usize * m..(i as usize + 1) * m].copy_from_slice(&code);
         }
         let assigned = fresh.len();
         let coarse = std::mem::take(&mut ivf.coarse);
         let fine = std::mem::take(&mut ivf.fine);
-        let ivf = Ivf::from_parts(points, d, coarse, fine, &cell, trained)?;
+        let pq = ivf.pq.clone();
+        let ivf = Ivf::from_parts(n, d, coarse, fine, pq, &cell, &codes, trained)?;
         Some(FromCache {
             ivf,
             exact: stored.key == key && assigned == 0,
@@ -499,8 +706,9 @@ impl Ivf {
     }
 
     /// About the `k` nearest items to `q` (see the module documentation), nearest first, with
-    /// their squared distances ([`distance_sq`]); ties by item id.
-    pub(crate) fn search(&self, q: &[f32], k: usize) -> Vec<(u32, f32)> {
+    /// their squared distances ([`distance_sq`] to their descriptors in `points`); ties by
+    /// item id.
+    pub(crate) fn search(&self, q: &[f32], k: usize, points: &impl Points) -> Vec<(u32, f32)> {
         let d = self.d;
         let mut coarse: Vec<(f32, usize)> = self
             .coarse
@@ -520,28 +728,38 @@ impl Ivf {
         keep_smallest(&mut fine, FINE_PROBES, |a, b| {
             a.0.total_cmp(&b.0).then((a.1, a.2).cmp(&(b.1, b.2)))
         });
+        let m = self.pq.bytes();
+        let by = |a: &(u32, f32), b: &(u32, f32)| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0));
         let mut found: Vec<(u32, f32)> = Vec::new();
+        let mut residual = vec![0f32; d];
         for &(_, ci, fi) in &fine {
+            let c = &self.fine[ci][fi * d..(fi + 1) * d];
+            for ((r, q), c) in residual.iter_mut().zip(q).zip(c) {
+                *r = q - c;
+            }
+            let table = self.pq.table(&residual);
             let (start, end) = self.ranges[ci][fi];
             for j in start as usize..end as usize {
-                found.push((
-                    self.items[j],
-                    distance_sq(&self.data[j * d..(j + 1) * d], q),
-                ));
+                found.push((self.items[j], adc(&table, &self.codes[j * m..(j + 1) * m])));
             }
         }
-        let by = |a: &(u32, f32), b: &(u32, f32)| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0));
+        // the nearest by code, measured exactly
+        keep_smallest(&mut found, k.saturating_mul(RERANK), by);
+        for f in &mut found {
+            f.1 = distance_sq(points.point(f.0), q);
+        }
         keep_smallest(&mut found, k, by);
         found.sort_by(by);
         found
     }
 
-    /// Bytes held (centroids, items and the copy of the descriptors).
+    /// Bytes held (centroids, items, codes and the quantiser).
     pub(crate) fn bytes(&self) -> usize {
         4 * (self.coarse.len()
             + self.fine.iter().map(Vec::len).sum::<usize>()
             + self.items.len()
-            + self.data.len())
+            + self.pq.centroids.iter().map(Vec::len).sum::<usize>())
+            + self.codes.len()
             + 8 * self.ranges.iter().map(Vec::len).sum::<usize>()
     }
 }
@@ -598,9 +816,9 @@ mod tests {
         let (mut hits, mut total) = (0, 0);
         for qi in (0..n).step_by(97) {
             let q = &points[qi * d..(qi + 1) * d];
-            let got = ivf.search(q, 20);
+            let got = ivf.search(q, 20, &flat);
             assert_eq!(got[0].0, qi as u32);
-            assert_eq!(got, again.search(q, 20));
+            assert_eq!(got, again.search(q, 20, &flat));
             let want = exact(&points, d, q, 20);
             hits += got.iter().filter(|g| want.contains(&g.0)).count();
             total += want.len();
@@ -681,11 +899,13 @@ mod tests {
             trained: 5_000,
             coarse: ivf.coarse.clone(),
             fine: ivf.fine.clone(),
+            pq: ivf.pq.clone(),
             segments: vec![SegmentCells {
                 segment: (1, 100, 7),
                 positions: (0..250).collect(),
                 starts: (0..=250).map(|i| i * 10).collect(),
                 cells: vec![u32::MAX; 2_500],
+                codes: vec![0; 2_500 * ivf.pq.bytes()],
             }],
         };
         assert!(Ivf::from_cache(path, seal(&stored), key, &flat, d, &origins).is_none());
@@ -749,7 +969,7 @@ mod tests {
         // every new item is found by its own descriptor
         for i in (3_000..5_000u32).step_by(97) {
             let q = now.point(i);
-            assert_eq!(c.ivf.search(q, 1)[0], (i, 0.0));
+            assert_eq!(c.ivf.search(q, 1, &now)[0], (i, 0.0));
         }
         // rewritten for the new snapshot, it reads back exactly
         let again = c.ivf.to_cache(2, &now_origins);

@@ -794,7 +794,7 @@ impl<const D: usize> IndexReader<D> {
         let search = self.search();
         let items: Vec<usize> = match (&search.ivf, &search.tree) {
             (Some(ivf), _) => ivf
-                .search(query, qty.get())
+                .search(query, qty.get(), &Live(self))
                 .into_iter()
                 .map(|(i, _)| i as usize)
                 .collect(),
