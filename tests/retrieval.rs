@@ -240,7 +240,7 @@ fn an_index_recorded_before_new_parameters_keeps_its_own() {
         .shapes()
         .unwrap()
         .iter()
-        .map(|sh| sh.record.clone())
+        .map(|sh| (*sh.record).clone())
         .collect();
     let old = dir.path().join("old");
     let mut w = keycomp_index::IndexWriter::<{ keycomp_describe::DIM }>::create_or_open(&old)

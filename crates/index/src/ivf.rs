@@ -38,8 +38,8 @@ const SAMPLE_PER_CENTROID: usize = 48;
 pub const PQ_SUBSPACES: usize = 16;
 /// Centroids of each run's quantiser (one byte).
 const PQ_CENTROIDS: usize = 256;
-/// Residuals the runs' quantisers are fitted on, at most.
-const PQ_SAMPLE: usize = 65_536;
+/// Residuals the runs' quantisers are fitted on, at most (48 per centroid).
+const PQ_SAMPLE: usize = PQ_CENTROIDS * SAMPLE_PER_CENTROID;
 /// Candidates measured exactly per search, as a multiple of the neighbours asked for.
 pub const RERANK: usize = 4;
 

@@ -52,8 +52,8 @@ mod writer;
 pub use error::{CorruptKind, IndexError, Result};
 pub use ivf::distance_sq as squared_distance_fast;
 pub use reader::{
-    ComponentMatch, IVF_MIN_COMPONENTS, IndexReader, IndexStats, IndexedShape, SEARCH_CACHE_NAME,
-    SearchMode, SearchSource, squared_distance,
+    ComponentMatch, EXACT_TREE_MAX, IVF_MIN_COMPONENTS, IndexReader, IndexStats, IndexedShape,
+    SEARCH_CACHE_NAME, SearchMode, SearchSource, squared_distance,
 };
 pub use record::{
     ComponentRecord, ContentHash, MAX_SAMPLE_POINTS, ShapeId, ShapeRecord, canonical_path,

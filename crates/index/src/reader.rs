@@ -32,7 +32,7 @@
 
 use std::num::NonZero;
 use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
+use std::sync::{Arc, OnceLock};
 use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
@@ -52,8 +52,8 @@ use crate::segment;
 pub struct IndexedShape<const D: usize> {
     /// Its id.
     pub id: ShapeId,
-    /// Its record.
-    pub record: ShapeRecord<D>,
+    /// Its record (shared with the snapshot when the snapshot holds it decoded).
+    pub record: Arc<ShapeRecord<D>>,
 }
 
 /// One result of a component search.
@@ -104,8 +104,10 @@ pub struct IndexReader<const D: usize> {
     bytes: u64,
     /// The live shapes by increasing id: where each record is.
     slots: Vec<Slot>,
-    /// Each slot's record, decoded on first use (at open for segments read whole).
-    records: Vec<OnceLock<Box<IndexedShape<D>>>>,
+    /// Each slot's record when its segment was read whole; `None` for a mapped segment, whose
+    /// records are decoded on each use (so that a long-running reader of a large index holds
+    /// no more records than its callers do).
+    records: Vec<Option<Arc<ShapeRecord<D>>>>,
     /// `starts[i]`: the live components of the shapes before slot `i` (the search's item
     /// numbers), one more entry than `slots`.
     starts: Vec<u64>,
@@ -121,6 +123,12 @@ pub struct IndexReader<const D: usize> {
 /// Components from which [`SearchMode::Auto`] searches an inverted file instead of the exact
 /// KD-tree (about 390 shapes of 84 parts).
 pub const IVF_MIN_COMPONENTS: usize = 32_768;
+
+/// Components above which the exact search ([`SearchMode::Exact`]) scans the descriptors in
+/// place, every query part of a batch in one pass, instead of building a KD-tree over a copy
+/// of them (`4·D + 4` bytes per component: 1 GiB at 64 values); at that size the tree is near
+/// a linear scan anyway for 64-value descriptors (BENCHMARKS.md, "Candidate search").
+pub const EXACT_TREE_MAX: usize = 1 << 22;
 
 /// The live descriptors of a snapshot, in item order, read in place.
 struct Live<'a, const D: usize>(&'a IndexReader<D>);
@@ -453,15 +461,8 @@ impl<const D: usize> IndexReader<D> {
         let mut records = Vec::with_capacity(live.len());
         let mut origins = Vec::with_capacity(live.len());
         for (slot, record, origin) in live {
-            let cell = OnceLock::new();
-            if let Some(record) = record {
-                let _ = cell.set(Box::new(IndexedShape {
-                    id: slot.id,
-                    record,
-                }));
-            }
             slots.push(slot);
-            records.push(cell);
+            records.push(record.map(Arc::new));
             origins.push(origin);
         }
         Ok(IndexReader {
@@ -590,6 +591,15 @@ impl<const D: usize> IndexReader<D> {
                     build_time: start.elapsed(),
                 };
             }
+            if self.component_count() > EXACT_TREE_MAX {
+                // exact searches scan the descriptors in place (`scan`)
+                return Search {
+                    tree: None,
+                    ivf: None,
+                    source: SearchSource::Built,
+                    build_time: start.elapsed(),
+                };
+            }
             let points: Vec<[f32; D]> = (0..self.component_count())
                 .filter_map(|i| self.descriptor(i).map(|(_, _, d)| *d))
                 .collect();
@@ -647,52 +657,52 @@ impl<const D: usize> IndexReader<D> {
         self.slots.iter().map(|s| s.id)
     }
 
-    /// The shape of slot `i` (`i < len()`), decoded if it is not yet.
-    fn shape_at(&self, i: usize) -> Result<&IndexedShape<D>> {
-        let cell = &self.records[i];
-        if let Some(s) = cell.get() {
-            return Ok(s);
+    /// The record of slot `i` (`i < len()`): the snapshot's, or decoded from its mapped
+    /// segment.
+    fn record_at(&self, i: usize) -> Result<Arc<ShapeRecord<D>>> {
+        if let Some(r) = &self.records[i] {
+            return Ok(Arc::clone(r));
         }
         let slot = self.slots[i];
-        // A slot without a decoded record points into a mapped segment.
+        // A slot without a record points into a mapped segment.
         let m = self
             .mapped
             .get(slot.segment as usize)
             .ok_or_else(|| IndexError::InvalidQuery {
                 reason: format!("shape {} has no record", slot.id),
             })?;
-        let record = crate::mapped::record::<D>(m.payload(), &m.table, slot.position as usize)
-            .map_err(|msg| m.malformed(msg))?;
-        Ok(cell.get_or_init(|| {
-            Box::new(IndexedShape {
-                id: slot.id,
-                record,
-            })
-        }))
+        crate::mapped::record::<D>(m.payload(), &m.table, slot.position as usize)
+            .map(Arc::new)
+            .map_err(|msg| m.malformed(msg))
     }
 
-    /// All live shapes, by increasing id (records of a mapped snapshot are decoded, in
-    /// parallel, and kept).
+    /// All live shapes, by increasing id (records of mapped segments decoded, in parallel).
     ///
     /// Errors: [`IndexError::Corrupt`] naming the segment of the first damaged record.
-    pub fn shapes(&self) -> Result<Vec<&IndexedShape<D>>> {
+    pub fn shapes(&self) -> Result<Vec<IndexedShape<D>>> {
         (0..self.slots.len())
             .into_par_iter()
-            .map(|i| self.shape_at(i))
+            .map(|i| {
+                Ok(IndexedShape {
+                    id: self.slots[i].id,
+                    record: self.record_at(i)?,
+                })
+            })
             .collect()
     }
 
-    /// The record of shape `id`, if it is live in this snapshot (decoded on first use).
+    /// The record of shape `id`, if it is live in this snapshot (decoded from a mapped
+    /// segment on each call).
     ///
     /// Errors: [`IndexError::Corrupt`] if its record is damaged.
-    pub fn get(&self, id: ShapeId) -> Result<Option<&ShapeRecord<D>>> {
+    pub fn get(&self, id: ShapeId) -> Result<Option<Arc<ShapeRecord<D>>>> {
         match self.slots.binary_search_by_key(&id, |s| s.id) {
-            Ok(i) => self.shape_at(i).map(|s| Some(&s.record)),
+            Ok(i) => self.record_at(i).map(Some),
             Err(_) => Ok(None),
         }
     }
 
-    /// The canonical path of slot `i`, without decoding its record.
+    /// The canonical path of slot `i`, without decoding a mapped record.
     fn canonical_path_at(&self, i: usize) -> Result<&Path> {
         let slot = self.slots[i];
         match self.mapped.get(slot.segment as usize) {
@@ -704,19 +714,24 @@ impl<const D: usize> IndexReader<D> {
                         .map_or("", |c| c.canonical_path.as_str()),
                 ))
             }
-            None => Ok(&self.shape_at(i)?.record.canonical_path),
+            None => Ok(self.records[i]
+                .as_ref()
+                .map_or(Path::new(""), |r| r.canonical_path.as_path())),
         }
     }
 
     /// The live shape whose canonical path is `path` (taken as given, then canonicalised).
     ///
     /// Errors: [`IndexError::Corrupt`] if a segment head or that shape's record is damaged.
-    pub fn find_path(&self, path: &Path) -> Result<Option<&IndexedShape<D>>> {
+    pub fn find_path(&self, path: &Path) -> Result<Option<IndexedShape<D>>> {
         let canon = canonical_path(path);
         for want in [path, canon.as_path()] {
             for i in 0..self.slots.len() {
                 if self.canonical_path_at(i)? == want {
-                    return self.shape_at(i).map(Some);
+                    return Ok(Some(IndexedShape {
+                        id: self.slots[i].id,
+                        record: self.record_at(i)?,
+                    }));
                 }
             }
         }
@@ -761,14 +776,7 @@ impl<const D: usize> IndexReader<D> {
             Some(m) => m
                 .descriptors(s.position as usize, D)?
                 .get(c * D..(c + 1) * D),
-            None => Some(
-                &self.records[slot]
-                    .get()?
-                    .record
-                    .components
-                    .get(c)?
-                    .descriptor,
-            ),
+            None => Some(&self.records[slot].as_ref()?.components.get(c)?.descriptor),
         }
     }
 
@@ -826,7 +834,19 @@ impl<const D: usize> IndexReader<D> {
         queries: &[[f32; D]],
         k: usize,
     ) -> Result<Vec<Vec<ComponentMatch>>> {
-        self.search();
+        let search = self.search();
+        if search.ivf.is_none() && search.tree.is_none() {
+            if let Some(i) = queries
+                .iter()
+                .flat_map(|q| q.iter())
+                .position(|v| !v.is_finite())
+            {
+                return Err(IndexError::InvalidQuery {
+                    reason: format!("descriptor value {} is not finite", i % D.max(1)),
+                });
+            }
+            return Ok(self.scan(queries, k));
+        }
         queries
             .par_iter()
             .map(|q| self.nearest_components(q, k))
@@ -836,17 +856,81 @@ impl<const D: usize> IndexReader<D> {
     /// Exact `k` nearest components by scanning every descriptor (the oracle the KD-tree is
     /// tested against, and the fallback if the tree could not be built).
     pub fn nearest_linear(&self, query: &[f32; D], k: usize) -> Vec<ComponentMatch> {
-        let mut all: Vec<ComponentMatch> = (0..self.component_count())
-            .filter_map(|i| self.descriptor(i))
-            .map(|(shape, component, d)| ComponentMatch {
-                shape,
-                component,
-                distance_sq: squared_distance(query, d),
+        self.scan(std::slice::from_ref(query), k)
+            .pop()
+            .unwrap_or_default()
+    }
+
+    /// The exact `k` nearest components of each of `queries`, by one parallel pass over every
+    /// descriptor (read in place), each compared with every query: what the exact search does
+    /// above [`EXACT_TREE_MAX`] components. Ranked by the vectorised distance, the `2k`
+    /// nearest are measured again in kiddo's summation order and the `k` best kept, ordered as
+    /// [`IndexReader::nearest_components`] orders them.
+    fn scan(&self, queries: &[[f32; D]], k: usize) -> Vec<Vec<ComponentMatch>> {
+        if k == 0 {
+            return vec![Vec::new(); queries.len()];
+        }
+        let keep = k.saturating_mul(2);
+        type Found = Vec<Vec<(f32, u32)>>;
+        let prune = |v: &mut Vec<(f32, u32)>| {
+            if v.len() > keep {
+                v.select_nth_unstable_by(keep - 1, |a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+                v.truncate(keep);
+            }
+        };
+        let slots: Vec<usize> = (0..self.slots.len()).collect();
+        let found: Found = slots
+            .par_chunks(64)
+            .fold(
+                || vec![Vec::new(); queries.len()],
+                |mut acc: Found, chunk| {
+                    for &slot in chunk {
+                        let first = self.starts[slot] as usize;
+                        let m = (self.starts[slot + 1] - self.starts[slot]) as usize;
+                        for c in 0..m {
+                            let Some(d) = self.descriptor_slice(first + c) else {
+                                continue;
+                            };
+                            for (q, v) in queries.iter().zip(acc.iter_mut()) {
+                                v.push((crate::ivf::distance_sq(q, d), (first + c) as u32));
+                                if v.len() >= 2 * keep.max(64) {
+                                    prune(v);
+                                }
+                            }
+                        }
+                    }
+                    acc
+                },
+            )
+            .reduce(
+                || vec![Vec::new(); queries.len()],
+                |mut a, b| {
+                    for (x, y) in a.iter_mut().zip(b) {
+                        x.extend(y);
+                        prune(x);
+                    }
+                    a
+                },
+            );
+        found
+            .into_iter()
+            .zip(queries)
+            .map(|(mut v, q)| {
+                prune(&mut v);
+                let mut out: Vec<ComponentMatch> = v
+                    .into_iter()
+                    .filter_map(|(_, i)| self.descriptor(i as usize))
+                    .map(|(shape, component, d)| ComponentMatch {
+                        shape,
+                        component,
+                        distance_sq: squared_distance(q, d),
+                    })
+                    .collect();
+                sort_matches(&mut out);
+                out.truncate(k);
+                out
             })
-            .collect();
-        sort_matches(&mut all);
-        all.truncate(k);
-        all
+            .collect()
     }
 }
 
@@ -868,4 +952,37 @@ pub fn squared_distance<const D: usize>(a: &[f32; D], b: &[f32; D]) -> f32 {
             d * d
         })
         .sum()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{IndexWriter, synthetic};
+
+    /// One pass for several queries finds, for each, what the KD-tree finds.
+    #[test]
+    fn a_batched_scan_equals_the_tree() {
+        const D: usize = 6;
+        let dir = tempfile::tempdir().unwrap();
+        let mut w = IndexWriter::<D>::create_or_open(dir.path()).unwrap();
+        w.add_batch(synthetic::records::<D>(5, 0..300)).unwrap();
+        w.add_batch(synthetic::records::<D>(5, 300..450)).unwrap();
+        drop(w);
+        let r = IndexReader::<D>::open_mapped(dir.path()).unwrap();
+        let queries: Vec<[f32; D]> = (0..7)
+            .map(|i| {
+                let s = &r.shapes().unwrap()[i * 31];
+                let mut q = s.record.components[0].descriptor;
+                q[0] += 0.01 * i as f32;
+                q
+            })
+            .collect();
+        for k in [1, 5, 64] {
+            let scanned = r.scan(&queries, k);
+            for (q, got) in queries.iter().zip(&scanned) {
+                assert_eq!(got, &r.nearest_components(q, k).unwrap(), "k {k}");
+            }
+        }
+        assert!(r.scan(&queries, 0).iter().all(Vec::is_empty));
+    }
 }

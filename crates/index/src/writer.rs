@@ -291,7 +291,7 @@ impl<const D: usize> IndexWriter<D> {
             }
         }
         // Where each canonical path was first seen: (content hash, index dir).
-        let mut seen: HashMap<&Path, (ContentHash, &Path)> = HashMap::new();
+        let mut seen: HashMap<PathBuf, (ContentHash, &Path)> = HashMap::new();
         let mut batch = Vec::new();
         let (mut read, mut duplicates) = (0, 0);
         for src in sources {
@@ -315,8 +315,8 @@ impl<const D: usize> IndexWriter<D> {
                         });
                     }
                     None => {
-                        seen.insert(key, (r.content_hash, src.dir()));
-                        batch.push(r.clone());
+                        seen.insert(key.to_path_buf(), (r.content_hash, src.dir()));
+                        batch.push((**r).clone());
                     }
                 }
             }

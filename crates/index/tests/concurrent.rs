@@ -43,7 +43,7 @@ fn readers_see_consistent_snapshots_during_add() {
                     last_gen = r.generation();
                     last_n = n;
                     for (i, s) in r.shapes().unwrap().iter().enumerate() {
-                        assert_eq!(s.record, synthetic::record::<D>(SEED, i as u64));
+                        assert_eq!(*s.record, synthetic::record::<D>(SEED, i as u64));
                     }
                     let q = r.shapes().unwrap()[0].record.components[1].descriptor;
                     let hits = r.nearest_components(&q, 10).unwrap();

@@ -329,13 +329,7 @@ fn segment_swapped_for_another_intact_segment() {
 #[test]
 fn flipped_byte_is_caught_by_a_mapped_reader_where_it_reads() {
     let (_t, dir) = build();
-    let want: Vec<_> = IndexReader::<D>::open(&dir)
-        .unwrap()
-        .shapes()
-        .unwrap()
-        .into_iter()
-        .cloned()
-        .collect();
+    let want: Vec<_> = IndexReader::<D>::open(&dir).unwrap().shapes().unwrap();
     // segment 0: both its shapes are live (segment 1 holds the removed one)
     let p = seg(&dir, 0);
     let good = fs::read(&p).unwrap();
@@ -347,9 +341,7 @@ fn flipped_byte_is_caught_by_a_mapped_reader_where_it_reads() {
         let e = match IndexReader::<D>::open_mapped(&dir) {
             Err(e) => e,
             Ok(r) => {
-                let shapes = r
-                    .shapes()
-                    .map(|s| s.into_iter().cloned().collect::<Vec<_>>());
+                let shapes = r.shapes();
                 match shapes.and_then(|s| r.find_path(Path::new("/nowhere")).map(|_| s)) {
                     Err(e) => e,
                     Ok(s) => {

@@ -32,7 +32,7 @@ fn check_prefix(dir: &Path, at_least: u64) -> u64 {
     assert_eq!(n % BATCH, 0, "a partial batch is visible: {n} shapes");
     for (i, s) in r.shapes().unwrap().iter().enumerate() {
         assert_eq!(
-            s.record,
+            *s.record,
             synthetic::record::<D>(SEED, i as u64),
             "shape {i} differs"
         );

@@ -33,7 +33,7 @@ fn open_fixture(version: u32) -> (IndexReader<D>, Vec<ShapeRecord<D>>) {
         .shapes()
         .unwrap()
         .iter()
-        .map(|s| s.record.clone())
+        .map(|s| (*s.record).clone())
         .collect();
     assert_eq!(got, want, "format {version}");
     assert_eq!(r.stats().segments, 2);
@@ -196,7 +196,7 @@ fn format_v5_fixture_still_opens() {
         .shapes()
         .unwrap()
         .into_iter()
-        .map(|s| s.record.clone())
+        .map(|s| (*s.record).clone())
         .collect();
     assert_eq!(lazy, got);
 }
@@ -211,7 +211,7 @@ fn older_formats_open_mapped() {
             .shapes()
             .unwrap()
             .into_iter()
-            .map(|s| s.record.clone())
+            .map(|s| (*s.record).clone())
             .collect();
         assert_eq!(lazy, got, "format {version}");
     }

@@ -22,7 +22,7 @@ fn sorted(r: &IndexReader<D>) -> Vec<ShapeRecord<D>> {
         .shapes()
         .unwrap()
         .iter()
-        .map(|s| s.record.clone())
+        .map(|s| (*s.record).clone())
         .collect();
     v.sort_by(|a, b| a.canonical_path.cmp(&b.canonical_path));
     v

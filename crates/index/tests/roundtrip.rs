@@ -21,7 +21,7 @@ fn live_records(dir: &Path) -> Vec<ShapeRecord<D>> {
         .shapes()
         .unwrap()
         .iter()
-        .map(|s| s.record.clone())
+        .map(|s| (*s.record).clone())
         .collect();
     v.sort_by(|a, b| a.canonical_path.cmp(&b.canonical_path));
     v
@@ -43,8 +43,8 @@ fn add_reopen_get_identical_records() {
     assert_eq!(r.shapes().unwrap().len(), 35);
     let expected = records(0..35);
     for (s, e) in r.shapes().unwrap().iter().zip(&expected) {
-        assert_eq!(&s.record, e);
-        assert_eq!(r.get(s.id).unwrap(), Some(e));
+        assert_eq!(&*s.record, e);
+        assert_eq!(r.get(s.id).unwrap().as_deref(), Some(e));
     }
     let st = r.stats();
     assert_eq!(st.shapes, 35);

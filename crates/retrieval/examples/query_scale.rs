@@ -1,17 +1,23 @@
-//! Index open time and query latency (excluding the query's own detection) as the index grows.
-//! Shapes are synthetic records (4–8 components, random descriptors, `keycomp_index::synthetic`)
-//! or, given an index of real shapes, copies of its records with every descriptor value moved by
-//! up to ±0.01 (so a 200-shape index of about 90 parts per shape grows to any size with
-//! realistic descriptors); queries are indexed shapes' descriptors and layout, perturbed alike.
+//! Index size, open time, search memory and query latency (excluding the query's own
+//! detection) as the index grows. Shapes are synthetic records (4–8 components, random
+//! descriptors, `keycomp_index::synthetic`) or, given an index of real shapes, copies of its
+//! records with every descriptor value moved by up to ±0.01 (so a 200-shape index of about 84
+//! parts per shape grows to any size with realistic descriptors); queries are indexed shapes'
+//! descriptors and layout, perturbed alike.
 //!
 //! `cargo run --release -p keycomp-retrieval --example query_scale -- [SIZES] [INDEX] [QUERIES]`
 //! (SIZES: comma-separated shape counts, default 1000,10000,100000; INDEX: an index directory to
-//! take records from; QUERIES: queries per size, default 20). Prints a markdown table, medians
-//! over the queries: the candidate search alone (the searches of every query part), `rank` for
-//! the top 10 and `rank` of every candidate (which must agree on the top 10), with the default
-//! search (approximate from `keycomp_index::IVF_MIN_COMPONENTS` components) and with the exact
-//! one (`SearchMode::Exact`), and how many queries get the exact search's top 10. Last, 1 % more
-//! shapes are added and a new reader's first search is timed: it updates the search cache.
+//! take records from; QUERIES: queries per size, default 20; `SCALE_DIR=DIR` puts the grown
+//! indexes in DIR instead of the temporary folder). Prints a markdown table, medians over the
+//! queries: the time to write the index (5,000 shapes per `add_batch`) and its size; the
+//! memory-mapped open (`IndexReader::open_mapped`, median of 5); the search structure's build,
+//! its reading from the search cache by a second reader, its update by a reader after 1 % more
+//! shapes were added, its memory; the process's resident memory after the queries; the
+//! candidate search alone (the searches of every query part); `rank` for the top 10 and `rank`
+//! of every candidate (which must agree on the top 10), with the default search (approximate
+//! from `keycomp_index::IVF_MIN_COMPONENTS` components) and with the exact one
+//! (`SearchMode::Exact`: a KD-tree, or above `keycomp_index::EXACT_TREE_MAX` components one
+//! scan of every descriptor per query); and how many queries get the exact search's top 10.
 //!
 //! With `FRAGMENTS=DIR` in the environment (DIR: the record cache of a scale-free `keycomp
 //! bench retrieval` run, `OUT/cache`), a second table times real fragment queries described
@@ -39,6 +45,18 @@ fn view<'a>(descriptors: &'a [[f32; DIM]], layout: &'a [f32]) -> ShapeView<'a> {
     }
 }
 
+/// The process's resident memory in MB (Linux; "n/a" elsewhere).
+fn resident_mb() -> String {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            let line = s.lines().find(|l| l.starts_with("VmRSS:"))?;
+            let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+            Some(format!("{:.0}", kb / 1e3))
+        })
+        .unwrap_or_else(|| "n/a".into())
+}
+
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
@@ -60,7 +78,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             IndexReader::<DIM>::open(&dir)?
                 .shapes()?
                 .iter()
-                .map(|s| s.record.clone())
+                .map(|s| (*s.record).clone())
                 .collect(),
         ),
         None => None,
@@ -109,11 +127,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     };
     println!(
-        "| shapes | components | open (ms) | search build (ms) | search from cache (ms) | search after adding 1 % (ms) | search memory (MB) | candidate search (ms) | query, top 10 (ms) | query, every candidate (ms) | exact: build (ms) | exact: candidate search (ms) | exact: query, top 10 (ms) | top 10 as exact (same order / same set) |"
+        "| shapes | components | index written (s) | index bytes (GB) | open (ms) | search build (ms) | search from cache (ms) | search after adding 1 % (ms) | search memory (MB) | resident memory (MB) | candidate search (ms) | query, top 10 (ms) | query, every candidate (ms) | exact: query, top 10 (ms) | top 10 as exact (same order / same set) |"
     );
-    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for n in sizes {
-        let dir = tempfile::tempdir()?;
+        let dir = match std::env::var_os("SCALE_DIR") {
+            Some(parent) => tempfile::tempdir_in(parent)?,
+            None => tempfile::tempdir()?,
+        };
+        let t = Instant::now();
         {
             let mut w = IndexWriter::<DIM>::create_or_open(dir.path())?;
             let mut i = 0;
@@ -123,6 +145,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 i = end;
             }
         }
+        let written = t.elapsed().as_secs_f64();
         let mut opens = Vec::new();
         for _ in 0..5 {
             let t = Instant::now();
@@ -137,7 +160,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let mut rng = ChaCha8Rng::seed_from_u64(1);
         let make_query = |rng: &mut ChaCha8Rng| {
             let id = ids[rng.random_range(0..ids.len())];
-            let rec = reader.get(id).ok().flatten().cloned();
+            let rec = reader.get(id).ok().flatten().map(|r| (*r).clone());
             rec.map(|rec| {
                 let descs: Vec<[f32; DIM]> = rec
                     .components
@@ -155,7 +178,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         };
         let params = MatchParams::default();
         let build = reader.prepare_search().as_secs_f64() * 1e3;
-        let exact_build = exact.prepare_search().as_secs_f64() * 1e3;
+        exact.prepare_search();
         let mb = reader.search_bytes() as f64 / 1e6;
         // a second process's first search reads the structure the first one cached
         let again = IndexReader::<DIM>::open_mapped(dir.path())?;
@@ -167,7 +190,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         };
         drop(again);
         let (mut search, mut times, mut full) = (Vec::new(), Vec::new(), Vec::new());
-        let (mut exact_search, mut exact_times) = (Vec::new(), Vec::new());
+        let mut exact_times = Vec::new();
         let (mut same, mut same_set) = (0, 0);
         for _ in 0..queries {
             let (d, l) = make_query(&mut rng).ok_or("empty index")?;
@@ -186,9 +209,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     .zip(&all)
                     .all(|(a, b)| a.id == b.id && a.result == b.result)
             );
-            let t = Instant::now();
-            exact.nearest_components_batch(&d, CANDIDATES_PER_COMPONENT)?;
-            exact_search.push(t.elapsed().as_secs_f64() * 1e3);
             let t = Instant::now();
             let e = rank(&exact, view(&d, &l), 10, &params)?;
             exact_times.push(t.elapsed().as_secs_f64() * 1e3);
@@ -233,6 +253,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         // an add of 1 % more shapes: the next process's first search updates the cache
         let components = reader.component_count();
+        let resident = resident_mb();
+        let bytes = reader.stats().bytes as f64 / 1e9;
         drop((reader, exact));
         let more = (n / 100).max(1);
         IndexWriter::<DIM>::create_or_open(dir.path())?.add_batch(records(n..n + more))?;
@@ -243,7 +265,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             _ => format!("{after_ms:.0}"),
         };
         println!(
-            "| {n} | {} | {:.1} | {:.0} | {cached} | {updated} | {:.0} | {:.2} | {:.2} | {:.2} | {:.0} | {:.2} | {:.2} | {same} / {same_set} of {queries} |",
+            "| {n} | {} | {written:.0} | {bytes:.1} | {:.1} | {:.0} | {cached} | {updated} | {:.0} | {resident} | {:.2} | {:.2} | {:.2} | {:.0} | {same} / {same_set} of {queries} |",
             components,
             median(opens),
             build,
@@ -251,8 +273,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             median(search),
             median(times),
             median(full),
-            exact_build,
-            median(exact_search),
             median(exact_times),
         );
     }

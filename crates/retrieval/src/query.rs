@@ -174,9 +174,9 @@ fn match_candidates(
     params: &MatchParams,
     weights: &[f64],
 ) -> Result<Vec<Ranked>, IndexError> {
-    struct Candidate<'a> {
+    struct Candidate {
         id: ShapeId,
-        rec: &'a keycomp_index::ShapeRecord<DIM>,
+        rec: std::sync::Arc<keycomp_index::ShapeRecord<DIM>>,
         descriptors: Vec<Descriptor>,
         areas: Vec<f32>,
         centres: Vec<[f32; 3]>,
@@ -194,8 +194,8 @@ fn match_candidates(
                 rec.components.iter().map(|c| c.descriptor).collect();
             let d = crate::distances(query.descriptors, &descriptors);
             let bound = crate::score_bound(mq, descriptors.len(), &d, params, weights);
-            let areas = record_areas(rec, params);
-            let centres = record_centres(rec, params);
+            let areas = record_areas(&rec, params);
+            let centres = record_centres(&rec, params);
             Ok(Some(Candidate {
                 id,
                 rec,
@@ -215,7 +215,7 @@ fn match_candidates(
             layout: &c.rec.layout,
             areas: &c.areas,
             centres: &c.centres,
-            sample: record_sample(c.rec, params),
+            sample: record_sample(&c.rec, params),
         }
     }
     /// A candidate's match, and its assignment while the shortlist may still verify it.
