@@ -1,22 +1,27 @@
 //! Approximate nearest-neighbour search over component descriptors: an inverted file with a
-//! two-level k-means quantiser and product-quantised residuals (IVFADC; H. Jégou, M. Douze
-//! and C. Schmid, "Product quantization for nearest neighbor search", IEEE TPAMI 33(1), 2011,
-//! Sections II–IV).
+//! two-level k-means quantiser and quantised residuals (the IVFADC scheme of H. Jégou,
+//! M. Douze and C. Schmid, "Product quantization for nearest neighbor search", IEEE TPAMI
+//! 33(1), 2011, Section IV, with a scalar quantiser of the residuals instead of a product
+//! quantiser, and the nearest by code measured again exactly).
 //!
 //! The descriptors are split into `c` coarse cells by k-means, each coarse cell into `c` fine
 //! cells by k-means over its members, with `c ≈ √(n / CELL_SIZE)` so that a fine cell holds about
-//! [`CELL_SIZE`] descriptors. Each descriptor is stored once, in its fine cell, as a code of
-//! [`PQ_SUBSPACES`] bytes: its residual from the fine centroid, cut into that many runs of
-//! consecutive values, each run replaced by the nearest of 256 centroids fitted by k-means on
-//! the residuals' runs (16 bytes instead of 256 for 64 values). A query ranks the coarse
-//! centroids, takes the fine cells of its [`COARSE_PROBES`] nearest coarse cells, and scans the
-//! [`FINE_PROBES`] fine cells with the nearest centroids: each code's distance to the query is
-//! the sum of [`PQ_SUBSPACES`] table entries (the asymmetric distance, ADC), about
-//! `FINE_PROBES × CELL_SIZE` codes instead of `n` descriptors; the [`RERANK`]`× k` nearest by
-//! that distance are then measured exactly on the descriptors themselves, read in place. A
+//! [`CELL_SIZE`] descriptors. Each descriptor is stored once, in its fine cell, as a code of one
+//! byte per value: its residual from the fine centroid, each value rounded to the nearest of 256
+//! levels spanning that value's range over a sample of residuals (64 bytes instead of 256 for
+//! 64 values). A query ranks the coarse centroids, takes the fine cells of its
+//! [`COARSE_PROBES`] nearest coarse cells, and scans the [`FINE_PROBES`] fine cells with the
+//! nearest centroids, each code's distance to the query computed from the levels it stands for:
+//! about `FINE_PROBES × CELL_SIZE` codes instead of `n` descriptors; the [`RERANK`]`× k`
+//! nearest by code are then measured exactly on the descriptors themselves, read in place. A
 //! true neighbour is missed when it lies in a cell whose centroid is not among those, or when
-//! its code puts it beyond the re-ranked ones, so recall is measured, not guaranteed
+//! rounding puts it beyond the re-measured ones, so recall is measured, not guaranteed
 //! (BENCHMARKS.md, "Candidate search").
+//!
+//! A product quantiser (16 bytes per 64 values, 256 centroids per run of 4 values) was
+//! measured first: its codes are 4 times smaller, but its rounding is coarser than the
+//! differences between near-duplicate parts, and the ranking's top 10 matched the exact one's
+//! for 7 of 10 queries at 100,000 shapes (BENCHMARKS.md, "Candidate search").
 //!
 //! Everything is deterministic: initial centroids are evenly spaced sample points, and every
 //! sum is taken in a fixed order whatever the thread count.
@@ -33,15 +38,12 @@ pub const FINE_PROBES: usize = 12;
 const ITERATIONS: usize = 8;
 /// Sample points per centroid that k-means is fitted on.
 const SAMPLE_PER_CENTROID: usize = 48;
-/// Bytes of a code: runs of consecutive values each coded by one byte (fewer when the
-/// descriptor has fewer values).
-pub const PQ_SUBSPACES: usize = 16;
-/// Centroids of each run's quantiser (one byte).
-const PQ_CENTROIDS: usize = 256;
-/// Residuals the runs' quantisers are fitted on, at most (48 per centroid).
-const PQ_SAMPLE: usize = PQ_CENTROIDS * SAMPLE_PER_CENTROID;
+/// Levels of the scalar quantiser (one byte per value).
+const LEVELS: usize = 256;
+/// Residuals the quantiser's ranges are taken from, at most.
+const SQ_SAMPLE: usize = 65_536;
 /// Candidates measured exactly per search, as a multiple of the neighbours asked for.
-pub const RERANK: usize = 4;
+pub const RERANK: usize = 2;
 
 /// Squared Euclidean distance over eight partial sums, so that the loop vectorises (the
 /// summation order differs from [`crate::squared_distance`]: results agree to rounding).
@@ -202,7 +204,7 @@ struct Stored {
     trained: u64,
     coarse: Vec<f32>,
     fine: Vec<Vec<f32>>,
-    pq: Pq,
+    pq: Sq,
     segments: Vec<SegmentCells>,
 }
 
@@ -244,95 +246,104 @@ pub(crate) struct Ivf {
     ranges: Vec<Vec<(u32, u32)>>,
     /// Item ids (positions in the reader's component list), grouped by fine cell.
     items: Vec<u32>,
-    /// The product quantiser of the residuals.
-    pq: Pq,
+    /// The quantiser of the residuals.
+    pq: Sq,
     /// The codes of `items`, in the same order, `pq.bytes()` each.
     codes: Vec<u8>,
     /// Items the centroids were fitted on.
     trained: usize,
 }
 
-/// A product quantiser (Jégou et al. 2011, Section II): `bounds.len() - 1` runs of
-/// consecutive values, run `j` holding values `bounds[j]..bounds[j + 1]`, each with up to
-/// [`PQ_CENTROIDS`] centroids.
+/// A scalar quantiser of residuals: value `i` of a residual is coded by one byte, the nearest
+/// of 256 levels evenly spaced from `min[i]` by `step[i]` (the range of that value over the
+/// fitted sample; values beyond it take the end levels).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-pub(crate) struct Pq {
-    bounds: Vec<usize>,
-    /// Per run: its centroids, flat (`bounds[j + 1] - bounds[j]` values each).
-    centroids: Vec<Vec<f32>>,
+pub(crate) struct Sq {
+    min: Vec<f32>,
+    step: Vec<f32>,
 }
 
-impl Pq {
+impl Sq {
     /// Fits the quantiser of vectors of `d` values on `sample` (flat).
-    fn train(sample: &[f32], d: usize) -> Pq {
-        let m = PQ_SUBSPACES.min(d).max(1);
-        let bounds: Vec<usize> = (0..=m).map(|j| j * d / m).collect();
-        let n = sample.len() / d.max(1);
-        let centroids = (0..m)
-            .into_par_iter()
-            .map(|j| {
-                let (a, b) = (bounds[j], bounds[j + 1]);
-                let w = b - a;
-                let runs: Vec<f32> = sample
-                    .chunks_exact(d)
-                    .flat_map(|v| v[a..b].iter().copied())
-                    .collect();
-                let flat = Flat { data: &runs, d: w };
-                let all: Vec<u32> = (0..n as u32).collect();
-                kmeans_with(&flat, w, &all, PQ_CENTROIDS, n, false)
-            })
-            .collect();
-        Pq { bounds, centroids }
+    fn train(sample: &[f32], d: usize) -> Sq {
+        let mut lo = vec![f32::INFINITY; d];
+        let mut hi = vec![f32::NEG_INFINITY; d];
+        for v in sample.chunks_exact(d.max(1)) {
+            for i in 0..d {
+                lo[i] = lo[i].min(v[i]);
+                hi[i] = hi[i].max(v[i]);
+            }
+        }
+        let mut min = Vec::with_capacity(d);
+        let mut step = Vec::with_capacity(d);
+        for (l, h) in lo.into_iter().zip(hi) {
+            if l.is_finite() && h.is_finite() && h > l {
+                min.push(l);
+                step.push((h - l) / (LEVELS - 1) as f32);
+            } else {
+                // no sample, or one value: every code stands for it
+                min.push(if l.is_finite() { l } else { 0.0 });
+                step.push(0.0);
+            }
+        }
+        Sq { min, step }
     }
 
     /// Bytes per code.
     fn bytes(&self) -> usize {
-        self.bounds.len().saturating_sub(1)
+        self.min.len()
     }
 
-    /// Whether the quantiser fits vectors of `d` values, every centroid index fitting a byte.
+    /// Whether the quantiser fits vectors of `d` values, with finite levels.
     fn fits(&self, d: usize) -> bool {
-        let m = self.bytes();
-        m >= 1
-            && self.bounds.first() == Some(&0)
-            && self.bounds.last() == Some(&d)
-            && self.bounds.windows(2).all(|w| w[0] < w[1])
-            && self.centroids.len() == m
-            && self.centroids.iter().enumerate().all(|(j, c)| {
-                let w = self.bounds[j + 1] - self.bounds[j];
-                !c.is_empty() && c.len().is_multiple_of(w) && c.len() / w <= PQ_CENTROIDS
-            })
+        d >= 1
+            && self.min.len() == d
+            && self.step.len() == d
+            && self.min.iter().all(|v| v.is_finite())
+            && self.step.iter().all(|v| v.is_finite() && *v >= 0.0)
     }
 
     /// The code of `r` into `out` (`bytes()` long).
     fn encode(&self, r: &[f32], out: &mut [u8]) {
-        for (j, o) in out.iter_mut().enumerate() {
-            let (a, b) = (self.bounds[j], self.bounds[j + 1]);
-            *o = nearest(&self.centroids[j], b - a, &r[a..b]) as u8;
+        for (((o, v), m), s) in out.iter_mut().zip(r).zip(&self.min).zip(&self.step) {
+            *o = if *s > 0.0 {
+                ((v - m) / s).round().clamp(0.0, (LEVELS - 1) as f32) as u8
+            } else {
+                0
+            };
         }
     }
 
-    /// The distance table of residual `r`: entry `j * 256 + c` is the squared distance of
-    /// run `j` of `r` to centroid `c` of run `j` (+∞ past the run's centroids).
-    fn table(&self, r: &[f32]) -> Vec<f32> {
-        let mut t = vec![f32::INFINITY; self.bytes() * PQ_CENTROIDS];
-        for (j, c) in self.centroids.iter().enumerate() {
-            let (a, b) = (self.bounds[j], self.bounds[j + 1]);
-            for (k, cent) in c.chunks_exact(b - a).enumerate() {
-                t[j * PQ_CENTROIDS + k] = distance_sq(cent, &r[a..b]);
+    /// `r` shifted by the levels' origin (what [`Sq::distance`] takes).
+    fn shift(&self, r: &[f32], out: &mut [f32]) {
+        for ((o, v), m) in out.iter_mut().zip(r).zip(&self.min) {
+            *o = v - m;
+        }
+    }
+
+    /// Squared distance between a residual shifted by [`Sq::shift`] and the residual `code`
+    /// stands for (eight partial sums, so that the loop vectorises).
+    #[inline]
+    fn distance(&self, shifted: &[f32], code: &[u8]) -> f32 {
+        let mut acc = [0f32; 8];
+        let chunks = shifted
+            .chunks_exact(8)
+            .zip(code.chunks_exact(8))
+            .zip(self.step.chunks_exact(8));
+        for ((a, c), s) in chunks {
+            for l in 0..8 {
+                let d = a[l] - s[l] * f32::from(c[l]);
+                acc[l] += d * d;
             }
         }
-        t
+        let done = shifted.len() / 8 * 8;
+        let mut tail = 0f32;
+        for i in done..shifted.len() {
+            let d = shifted[i] - self.step[i] * f32::from(code[i]);
+            tail += d * d;
+        }
+        acc.iter().sum::<f32>() + tail
     }
-}
-
-/// The asymmetric distance of `code` under distance table `t` ([`Pq::table`]).
-#[inline]
-fn adc(t: &[f32], code: &[u8]) -> f32 {
-    code.iter()
-        .enumerate()
-        .map(|(j, &c)| t[j * PQ_CENTROIDS + c as usize])
-        .sum()
 }
 
 impl Ivf {
@@ -376,16 +387,16 @@ impl Ivf {
             base += (centroids.len() / d) as u32;
             fine.push(centroids);
         }
-        // the product quantiser, fitted on the residuals of an evenly spaced sample
+        // the quantiser, fitted on the residuals of an evenly spaced sample
         let flat_fine = fine.concat();
         let residual = |i: u32| -> Vec<f32> {
             let g = cell[i as usize] as usize;
             let c = &flat_fine[g * d..(g + 1) * d];
             point(i).iter().zip(c).map(|(v, c)| v - c).collect()
         };
-        let step = (n / PQ_SAMPLE).max(1);
+        let step = (n / SQ_SAMPLE).max(1);
         let sample: Vec<f32> = (0..n as u32).step_by(step).flat_map(&residual).collect();
-        let pq = Pq::train(&sample, d);
+        let pq = Sq::train(&sample, d);
         let m = pq.bytes();
         let mut codes = vec![0u8; n * m];
         codes
@@ -470,7 +481,7 @@ impl Ivf {
         d: usize,
         coarse: Vec<f32>,
         fine: Vec<Vec<f32>>,
-        pq: Pq,
+        pq: Sq,
         cell: &[u32],
         codes: &[u8],
         trained: usize,
@@ -512,17 +523,7 @@ impl Ivf {
         }
         let mut ordered = Vec::with_capacity(n * m);
         for &i in &items {
-            let code = &codes[i as usize * m..(i as usize + 1) * m];
-            // a code must name centroids the quantiser has (a damaged cache may not)
-            if code
-                .iter()
-                .zip(&pq.centroids)
-                .zip(pq.bounds.windows(2))
-                .any(|((&c, cs), w)| c as usize >= cs.len() / (w[1] - w[0]))
-            {
-                return None;
-            }
-            ordered.extend_from_slice(code);
+            ordered.extend_from_slice(&codes[i as usize * m..(i as usize + 1) * m]);
         }
         Some(Ivf {
             d,
@@ -732,15 +733,17 @@ impl Ivf {
         let by = |a: &(u32, f32), b: &(u32, f32)| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0));
         let mut found: Vec<(u32, f32)> = Vec::new();
         let mut residual = vec![0f32; d];
+        let mut shifted = vec![0f32; d];
         for &(_, ci, fi) in &fine {
             let c = &self.fine[ci][fi * d..(fi + 1) * d];
             for ((r, q), c) in residual.iter_mut().zip(q).zip(c) {
                 *r = q - c;
             }
-            let table = self.pq.table(&residual);
+            self.pq.shift(&residual, &mut shifted);
             let (start, end) = self.ranges[ci][fi];
             for j in start as usize..end as usize {
-                found.push((self.items[j], adc(&table, &self.codes[j * m..(j + 1) * m])));
+                let code = &self.codes[j * m..(j + 1) * m];
+                found.push((self.items[j], self.pq.distance(&shifted, code)));
             }
         }
         // the nearest by code, measured exactly
@@ -758,7 +761,7 @@ impl Ivf {
         4 * (self.coarse.len()
             + self.fine.iter().map(Vec::len).sum::<usize>()
             + self.items.len()
-            + self.pq.centroids.iter().map(Vec::len).sum::<usize>())
+            + 2 * self.pq.min.len())
             + self.codes.len()
             + 8 * self.ranges.iter().map(Vec::len).sum::<usize>()
     }

@@ -14,9 +14,12 @@
 //! new segment written atomically and then a new manifest renamed into place, so a process
 //! killed at any point leaves the index as it was before or after the change.
 //!
-//! Reading: [`IndexReader`] is a snapshot (one manifest, immutable segments) with a KD-tree
-//! (`kiddo`) over all live component descriptors for [`IndexReader::nearest_components`].
-//! Readers need no lock and may run while a writer works.
+//! Reading: [`IndexReader`] is a snapshot (one manifest, immutable segments), read whole
+//! ([`IndexReader::open`]) or memory-mapped with records decoded on use
+//! ([`IndexReader::open_mapped`]), with a search over all live component descriptors for
+//! [`IndexReader::nearest_components`] (a KD-tree, `kiddo`, on small indexes; an inverted file
+//! with product-quantised codes on large ones). Readers need no lock and may run while a
+//! writer works.
 //!
 //! Checking: [`verify`] reports every damaged, missing or incompatible file without changing
 //! anything. Errors ([`IndexError`]) say which file, whether it is corrupt or incompatible, and

@@ -1,13 +1,22 @@
-//! [`IndexReader`]: a consistent, read-only snapshot of an index, with a KD-tree over every
+//! [`IndexReader`]: a consistent, read-only snapshot of an index, with a search over every
 //! live component descriptor.
 //!
-//! Opening reads `MANIFEST` once, then the immutable segment files it lists, checking every
-//! footer, checksum and length against the manifest. Writers never modify a file in place, so
-//! the snapshot is consistent while an add runs. The one race left — a concurrent writer
-//! deleting a segment (after a remove or compact) between our reading the manifest and the
-//! segment — shows up as a missing segment; the reader then rereads the manifest and, if its
-//! generation moved on, starts over (a few times), so only a segment missing from the
-//! *current* manifest is reported as [`IndexError::MissingSegment`].
+//! Opening reads `MANIFEST` once, then the immutable segment files it lists. Writers never
+//! modify a file in place, so the snapshot is consistent while an add runs. The one race left —
+//! a concurrent writer deleting a segment (after a remove or compact) between our reading the
+//! manifest and the segment — shows up as a missing segment; the reader then rereads the
+//! manifest and, if its generation moved on, starts over (a few times), so only a segment
+//! missing from the *current* manifest is reported as [`IndexError::MissingSegment`].
+//!
+//! Two ways to open:
+//! - [`IndexReader::open`] reads every segment whole, checking every footer, checksum, length
+//!   and record, and keeps the records decoded (what listing, merging and checking want);
+//! - [`IndexReader::open_mapped`] memory-maps segments of format 5 and checks their tables
+//!   only (32 bytes per shape: 0.3 ms at 10,000 shapes against 0.4–0.9 s for reading them
+//!   whole; BENCHMARKS.md, "Candidate search"); the search reads descriptors in place from the
+//!   maps, and each record is decoded and checked when asked for, on each call (what a
+//!   process answering queries wants: it holds the tables, the search structure and the
+//!   records its callers hold).
 //!
 //! Search, built on the first search (or [`IndexReader::prepare_search`]) so that listing or
 //! looking up shapes does not pay for it:
@@ -17,16 +26,17 @@
 //!   descriptors. Building costs O(n log n); a query is O(log n) on well-clustered data and
 //!   degrades towards a linear scan for high-dimensional data — which 64-value descriptors
 //!   are: at 84,000 components the tree took 280 ms for a query's 84 searches;
-//! - from there, approximate: an inverted file with a two-level k-means quantiser (`ivf`),
-//!   about 12 cells of 512 descriptors scanned per search (9 ms for the same searches, the
-//!   top 10 of the ranking equal to the exact one's for 99 of 100 queries; BENCHMARKS.md,
-//!   "Candidate search"). [`SearchMode`] chooses otherwise.
+//! - from there, approximate: an inverted file with a two-level k-means quantiser and
+//!   product-quantised residuals (`ivf`): about 12 cells of 512 codes of 16 bytes scanned per
+//!   search, the nearest by code measured exactly (BENCHMARKS.md, "Candidate search").
+//!   [`SearchMode`] chooses otherwise; an exact search of more than [`EXACT_TREE_MAX`]
+//!   components scans every descriptor in place instead of copying them into a tree.
 //!
 //! Neither structure is part of the index on disk: each spans all segments, so every add would
 //! rewrite it whole. The inverted file is cached instead ([`SEARCH_CACHE_NAME`]): the reader
-//! that builds it writes it, with each record's cells by segment; later readers of the same
-//! snapshot read it, and readers of a later snapshot (after an add or a remove) update it —
-//! new records' parts go to their nearest cells, removed ones are left out — until the
+//! that builds it writes it, with each record's cells and codes by segment; later readers of
+//! the same snapshot read it, and readers of a later snapshot (after an add or a remove) update
+//! it — new records' parts go to their nearest cells, removed ones are left out — until the
 //! collection has doubled or halved ([`SearchSource`]; `index/README.md`, "Search cache").
 //! Distances are squared Euclidean, recomputed from the stored descriptors.
 
