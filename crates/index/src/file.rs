@@ -196,7 +196,87 @@ pub fn open_regular(path: &Path) -> std::io::Result<File> {
     File::open(path)
 }
 
+/// Memory-maps the whole of `f` (opened from `path`), read-only.
+///
+/// Only files this crate never modifies once renamed into place are mapped: segments and the
+/// search cache (writers write new files and rename them; deleting or replacing a mapped file
+/// leaves the mapping on the old one valid). A program other than keycomp truncating a mapped
+/// file makes the reading process fail with a bus error (index/README.md, *Reading*).
+pub fn map(f: &File, path: &Path) -> Result<memmap2::Mmap> {
+    // SAFETY: see above: the files mapped are immutable once written.
+    #[allow(unsafe_code)]
+    let map = unsafe { memmap2::Mmap::map(f) };
+    map.map_err(|e| IndexError::io("could not memory-map", path, e))
+}
+
 static TEMP_COUNTER: AtomicU64 = AtomicU64::new(0);
+
+/// A writer that counts and hashes what goes through it (for [`write_atomic_sealed`]).
+pub struct SealWriter<W: Write> {
+    inner: W,
+    len: u64,
+    hash: xxhash_rust::xxh3::Xxh3Default,
+}
+
+impl<W: Write> Write for SealWriter<W> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let n = self.inner.write(buf)?;
+        self.hash.update(&buf[..n]);
+        self.len += n as u64;
+        Ok(n)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+/// Writes the payload `write` produces, sealed with the footer of `kind` and `version` (as
+/// [`seal`] would), to `dir/name` atomically like [`write_atomic`], without holding the
+/// payload in memory.
+pub fn write_atomic_sealed(
+    dir: &Path,
+    name: &str,
+    kind: u32,
+    version: u32,
+    write: impl FnOnce(&mut SealWriter<std::io::BufWriter<File>>) -> std::io::Result<()>,
+) -> Result<PathBuf> {
+    let n = TEMP_COUNTER.fetch_add(1, Ordering::Relaxed);
+    let tmp = dir.join(format!("{name}{TEMP_INFIX}{}-{n}", std::process::id()));
+    let target = dir.join(name);
+    let result = (|| {
+        let f = OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&tmp)
+            .map_err(|e| IndexError::io("could not create", &tmp, e))?;
+        let failed = |e| IndexError::io("could not write", &tmp, e);
+        let mut w = SealWriter {
+            inner: std::io::BufWriter::with_capacity(1 << 20, f),
+            len: 0,
+            hash: xxhash_rust::xxh3::Xxh3Default::new(),
+        };
+        write(&mut w).map_err(failed)?;
+        let len = w.len;
+        w.write_all(&len.to_le_bytes()).map_err(failed)?;
+        w.write_all(&kind.to_le_bytes()).map_err(failed)?;
+        w.write_all(&version.to_le_bytes()).map_err(failed)?;
+        let checksum = w.hash.digest();
+        let mut inner = w.inner;
+        inner.write_all(&checksum.to_le_bytes()).map_err(failed)?;
+        inner.write_all(&MAGIC).map_err(failed)?;
+        let f = inner.into_inner().map_err(|e| failed(e.into_error()))?;
+        f.sync_all()
+            .map_err(|e| IndexError::io("could not sync", &tmp, e))?;
+        drop(f);
+        fs::rename(&tmp, &target).map_err(|e| IndexError::io("could not rename into", &target, e))
+    })();
+    if let Err(e) = result {
+        let _ = fs::remove_file(&tmp);
+        return Err(e);
+    }
+    sync_dir(dir)?;
+    Ok(target)
+}
 
 /// Writes `bytes` to `dir/name` atomically (temp file, fsync, rename, fsync directory).
 pub fn write_atomic(dir: &Path, name: &str, bytes: &[u8]) -> Result<PathBuf> {
@@ -251,6 +331,26 @@ mod tests {
         let o = unseal(Path::new("x"), bytes, KIND_SEGMENT, 7).unwrap();
         assert_eq!(o.payload(), b"hello");
         assert_eq!(o.checksum, sum);
+    }
+
+    /// A payload written through [`write_atomic_sealed`] gives the bytes [`seal`] gives.
+    #[test]
+    fn streamed_sealing_equals_sealing() {
+        let dir = tempfile::tempdir().unwrap();
+        let payload: Vec<u8> = (0..3_000_000u32).map(|i| (i * 31 % 253) as u8).collect();
+        let p = write_atomic_sealed(dir.path(), "f", KIND_SEARCH_CACHE, 5, |w| {
+            for chunk in payload.chunks(77_777) {
+                w.write_all(chunk)?;
+            }
+            Ok(())
+        })
+        .unwrap();
+        assert_eq!(fs::read(p).unwrap(), seal(payload, KIND_SEARCH_CACHE, 5).0);
+        assert_eq!(
+            fs::read_dir(dir.path()).unwrap().count(),
+            1,
+            "no temp file left"
+        );
     }
 
     #[test]

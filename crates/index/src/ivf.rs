@@ -194,7 +194,31 @@ struct SegmentCells {
     codes: Vec<u8>,
 }
 
-/// What a cache file holds.
+/// The start of a cache payload, as written (followed by a `u64` segment count and each
+/// segment's [`SegmentCells`]).
+#[derive(serde::Serialize)]
+struct Head<'a> {
+    key: u64,
+    d: u32,
+    trained: u64,
+    coarse: &'a [f32],
+    fine: &'a [Vec<f32>],
+    pq: &'a Sq,
+}
+
+/// [`Head`] as read.
+#[derive(serde::Deserialize)]
+struct HeadOwned {
+    key: u64,
+    d: u32,
+    trained: u64,
+    coarse: Vec<f32>,
+    fine: Vec<Vec<f32>>,
+    pq: Sq,
+}
+
+/// What a cache file holds, as one value (the tests craft caches with it).
+#[cfg(test)]
 #[derive(serde::Serialize, serde::Deserialize)]
 struct Stored {
     /// The snapshot key the cache was written for (equal: nothing to update).
@@ -397,14 +421,25 @@ impl Ivf {
         let step = (n / SQ_SAMPLE).max(1);
         let sample: Vec<f32> = (0..n as u32).step_by(step).flat_map(&residual).collect();
         let pq = Sq::train(&sample, d);
-        let m = pq.bytes();
-        let mut codes = vec![0u8; n * m];
-        codes
+        let mut ivf = Ivf::from_cells(n, d, coarse, fine, pq, &cell, n)
+            .expect("cells computed from the centroids are in range");
+        // each item's code, in cell order
+        let m = ivf.pq.bytes();
+        let (items, pq) = (&ivf.items, &ivf.pq);
+        ivf.codes
             .par_chunks_mut(m)
-            .enumerate()
-            .for_each(|(i, out)| pq.encode(&residual(i as u32), out));
-        Ivf::from_parts(n, d, coarse, fine, pq, &cell, &codes, n)
-            .expect("cells computed from the centroids are in range")
+            .zip(items.par_iter())
+            .for_each(|(out, &i)| pq.encode(&residual(i), out));
+        ivf
+    }
+
+    /// For each item, its place in cell order (the inverse of `items`).
+    fn places(&self) -> Vec<u32> {
+        let mut place = vec![0u32; self.items.len()];
+        for (j, &i) in self.items.iter().enumerate() {
+            place[i as usize] = j as u32;
+        }
+        place
     }
 
     /// The global fine cell `g`'s centroid, if there is one.
@@ -445,17 +480,6 @@ impl Ivf {
         u32::try_from(base + nearest(&self.fine[cell], d, p)).ok()
     }
 
-    /// Each item's code, in item order.
-    fn item_codes(&self) -> Vec<u8> {
-        let m = self.pq.bytes();
-        let mut out = vec![0u8; self.items.len() * m];
-        for (j, &i) in self.items.iter().enumerate() {
-            out[i as usize * m..(i as usize + 1) * m]
-                .copy_from_slice(&self.codes[j * m..(j + 1) * m]);
-        }
-        out
-    }
-
     /// Each item's global fine cell.
     fn cells(&self) -> Vec<u32> {
         let mut cell = vec![0u32; self.items.len()];
@@ -472,24 +496,21 @@ impl Ivf {
     }
 
     /// The inverted file of `n` items with these centroids and quantiser, item `i` in global
-    /// fine cell `cell[i]` (fine cells numbered coarse cell by coarse cell) with code
-    /// `codes[i * m..(i + 1) * m]`. Each cell lists its items in increasing order. `None` when
-    /// the parts do not fit together (a damaged cache).
-    #[allow(clippy::too_many_arguments)] // the parts of the structure, each checked here
-    fn from_parts(
+    /// fine cell `cell[i]` (fine cells numbered coarse cell by coarse cell), every code zero
+    /// (the caller writes them, in cell order). Each cell lists its items in increasing order.
+    /// `None` when the parts do not fit together (a damaged cache).
+    fn from_cells(
         n: usize,
         d: usize,
         coarse: Vec<f32>,
         fine: Vec<Vec<f32>>,
         pq: Sq,
         cell: &[u32],
-        codes: &[u8],
         trained: usize,
     ) -> Option<Ivf> {
         let m = pq.bytes();
         if d == 0
             || cell.len() != n
-            || codes.len() != n * m
             || !pq.fits(d)
             || !coarse.len().is_multiple_of(d)
             || coarse.len() / d != fine.len()
@@ -521,10 +542,6 @@ impl Ivf {
             g += r.len();
             ranges.push(r);
         }
-        let mut ordered = Vec::with_capacity(n * m);
-        for &i in &items {
-            ordered.extend_from_slice(&codes[i as usize * m..(i as usize + 1) * m]);
-        }
         Some(Ivf {
             d,
             coarse,
@@ -532,65 +549,18 @@ impl Ivf {
             ranges,
             items,
             pq,
-            codes: ordered,
+            codes: vec![0u8; n.checked_mul(m)?],
             trained,
         })
     }
 
     /// The inverted file as a cache file for the snapshot identified by `key`, whose items
-    /// come from `origins` (in item order): the centroids and the cell of every item, grouped
-    /// by segment, sealed like the index's files.
+    /// come from `origins` (in item order): the centroids, the quantiser, and the cell and code
+    /// of every item, grouped by segment, sealed like the index's files.
     pub(crate) fn to_cache(&self, key: u64, origins: &[Origin]) -> Vec<u8> {
-        let cell = self.cells();
-        let codes = self.item_codes();
-        let m = self.pq.bytes();
-        // per segment: (record position, its parts' cells, their codes)
-        type Records<'a> = Vec<(u32, &'a [u32], &'a [u8])>;
-        let mut by_segment: std::collections::BTreeMap<(u64, u64, u64), Records> =
-            std::collections::BTreeMap::new();
-        let mut first = 0usize;
-        for o in origins {
-            let end = (first + o.components as usize).min(cell.len());
-            by_segment.entry(o.segment).or_default().push((
-                o.position,
-                &cell[first..end],
-                &codes[first * m..end * m],
-            ));
-            first = end;
-        }
-        let segments = by_segment
-            .into_iter()
-            .map(|(segment, mut records)| {
-                records.sort_by_key(|r| r.0);
-                let mut starts = Vec::with_capacity(records.len() + 1);
-                let mut cells = Vec::new();
-                let mut codes = Vec::new();
-                for (_, c, k) in &records {
-                    starts.push(cells.len() as u32);
-                    cells.extend_from_slice(c);
-                    codes.extend_from_slice(k);
-                }
-                starts.push(cells.len() as u32);
-                SegmentCells {
-                    segment,
-                    positions: records.iter().map(|r| r.0).collect(),
-                    starts,
-                    cells,
-                    codes,
-                }
-            })
-            .collect();
-        let stored = Stored {
-            key,
-            d: self.d as u32,
-            trained: self.trained as u64,
-            coarse: self.coarse.clone(),
-            fine: self.fine.clone(),
-            pq: self.pq.clone(),
-            segments,
-        };
-        let payload = bincode::serde::encode_to_vec(&stored, crate::manifest::bincode_config())
-            .unwrap_or_default();
+        let mut payload = Vec::new();
+        // writing into memory cannot fail
+        let _ = self.write_payload(key, origins, &mut payload);
         crate::file::seal(
             payload,
             crate::file::KIND_SEARCH_CACHE,
@@ -599,29 +569,119 @@ impl Ivf {
         .0
     }
 
+    /// [`Ivf::to_cache`] written to `dir/name` atomically, segment by segment (never the whole
+    /// payload in memory).
+    pub(crate) fn write_cache(
+        &self,
+        dir: &std::path::Path,
+        name: &str,
+        key: u64,
+        origins: &[Origin],
+    ) -> crate::Result<std::path::PathBuf> {
+        crate::file::write_atomic_sealed(
+            dir,
+            name,
+            crate::file::KIND_SEARCH_CACHE,
+            crate::FORMAT_VERSION,
+            |w| self.write_payload(key, origins, w),
+        )
+    }
+
+    /// The cache payload (see [`Ivf::to_cache`]) into `w`: the fields of [`Head`], the
+    /// segment count, then each segment's [`SegmentCells`] (bincode, as one [`Stored`] would
+    /// be encoded).
+    fn write_payload(
+        &self,
+        key: u64,
+        origins: &[Origin],
+        w: &mut impl std::io::Write,
+    ) -> std::io::Result<()> {
+        let cell = self.cells();
+        let place = self.places();
+        let m = self.pq.bytes();
+        // per segment: (record position, its first item, its items)
+        type Records = Vec<(u32, usize, usize)>;
+        let mut by_segment: std::collections::BTreeMap<(u64, u64, u64), Records> =
+            std::collections::BTreeMap::new();
+        let mut first = 0usize;
+        for o in origins {
+            let end = (first + o.components as usize).min(cell.len());
+            by_segment
+                .entry(o.segment)
+                .or_default()
+                .push((o.position, first, end - first));
+            first = end;
+        }
+        let config = crate::manifest::bincode_config();
+        let enc = |e: bincode::error::EncodeError| std::io::Error::other(e.to_string());
+        let head = Head {
+            key,
+            d: self.d as u32,
+            trained: self.trained as u64,
+            coarse: &self.coarse,
+            fine: &self.fine,
+            pq: &self.pq,
+        };
+        bincode::serde::encode_into_std_write(&head, w, config).map_err(enc)?;
+        w.write_all(&(by_segment.len() as u64).to_le_bytes())?;
+        for (segment, mut records) in by_segment {
+            records.sort_by_key(|r| r.0);
+            let mut starts = Vec::with_capacity(records.len() + 1);
+            let mut cells = Vec::new();
+            let mut codes = Vec::new();
+            for &(_, first, count) in &records {
+                starts.push(cells.len() as u32);
+                for i in first..first + count {
+                    cells.push(cell[i]);
+                    let j = place[i] as usize;
+                    codes.extend_from_slice(&self.codes[j * m..(j + 1) * m]);
+                }
+            }
+            starts.push(cells.len() as u32);
+            let seg = SegmentCells {
+                segment,
+                positions: records.iter().map(|r| r.0).collect(),
+                starts,
+                cells,
+                codes,
+            };
+            bincode::serde::encode_into_std_write(&seg, w, config).map_err(enc)?;
+        }
+        Ok(())
+    }
+
     /// The inverted file of `points` (items from `origins`, in order) from a cache file's bytes
     /// (read from `path`), or `None` when the file is damaged or of another format, or when
     /// the items are too many or too few for its centroids (see [`GROWTH`]). Records the cache
     /// holds keep their cells; the others' items go to their nearest cells.
     pub(crate) fn from_cache(
         path: &std::path::Path,
-        bytes: Vec<u8>,
+        bytes: &[u8],
         key: u64,
         points: &impl Points,
         d: usize,
         origins: &[Origin],
     ) -> Option<FromCache> {
-        let opened = crate::file::unseal(
+        crate::file::check_footer(
             path,
             bytes,
             crate::file::KIND_SEARCH_CACHE,
             crate::FORMAT_VERSION,
+            true,
         )
         .ok()?;
-        Ivf::from_payload(opened.payload(), key, points, d, origins)
+        Ivf::from_payload(
+            &bytes[..bytes.len() - crate::file::FOOTER_LEN],
+            key,
+            points,
+            d,
+            origins,
+        )
     }
 
     /// [`Ivf::from_cache`] on a cache file's payload (its footer and checksum already checked).
+    /// Reads the segments' cells, then their codes, one segment at a time, straight into place
+    /// (the payload is never decoded whole).
     pub(crate) fn from_payload(
         payload: &[u8],
         key: u64,
@@ -629,80 +689,121 @@ impl Ivf {
         d: usize,
         origins: &[Origin],
     ) -> Option<FromCache> {
-        let (stored, _): (Stored, usize) = crate::manifest::decode_bounded(payload).ok()?;
+        let (head, mut at): (HeadOwned, usize) = crate::manifest::decode_bounded(payload).ok()?;
         let n = points.len();
-        let trained = usize::try_from(stored.trained).ok()?;
-        if stored.d as usize != d
+        let trained = usize::try_from(head.trained).ok()?;
+        if head.d as usize != d
             || n > trained.saturating_mul(GROWTH)
             || n.saturating_mul(GROWTH) < trained
         {
             return None;
         }
         // the centroids alone, to assign the items the cache does not hold
-        let mut ivf = Ivf::from_parts(
-            0,
+        let centroids = Ivf::from_cells(0, d, head.coarse, head.fine, head.pq, &[], trained)?;
+        let m = centroids.pq.bytes();
+        // where each live record's items are: (segment, position) -> (first item, items)
+        type Wanted = std::collections::HashMap<((u64, u64, u64), u32), (usize, usize)>;
+        let mut wanted = Wanted::with_capacity(origins.len());
+        let mut first = 0usize;
+        for o in origins {
+            wanted.insert((o.segment, o.position), (first, o.components as usize));
+            first += o.components as usize;
+        }
+        if first != n {
+            return None;
+        }
+        let count = u64::from_le_bytes(payload.get(at..at + 8)?.try_into().ok()?);
+        at += 8;
+        // the records of a decoded segment the cache holds for this snapshot:
+        // (first item, first entry in the segment's lists, items)
+        let held = |seg: &SegmentCells| -> Option<Vec<(usize, usize, usize)>> {
+            let mut out = Vec::new();
+            for (i, &pos) in seg.positions.iter().enumerate() {
+                let (a, b) = (
+                    *seg.starts.get(i)? as usize,
+                    *seg.starts.get(i + 1)? as usize,
+                );
+                if let Some(&(first, items)) = wanted.get(&(seg.segment, pos))
+                    && b.checked_sub(a) == Some(items)
+                    && b <= seg.cells.len()
+                    && b.checked_mul(m).is_some_and(|e| e <= seg.codes.len())
+                {
+                    out.push((first, a, items));
+                }
+            }
+            Some(out)
+        };
+        // pass 1: the cells (a cell beyond the centroids' is a damaged cache)
+        let cells_total: usize = centroids.fine.iter().map(|f| f.len() / d).sum();
+        let mut cell = vec![u32::MAX; n];
+        let mut offsets = Vec::new();
+        for _ in 0..count {
+            offsets.push(at);
+            let (seg, used): (SegmentCells, usize) =
+                crate::manifest::decode_bounded(payload.get(at..)?).ok()?;
+            at += used;
+            for (first, a, items) in held(&seg)? {
+                let cells = &seg.cells[a..a + items];
+                if cells.iter().any(|&c| c as usize >= cells_total) {
+                    return None;
+                }
+                cell[first..first + items].copy_from_slice(cells);
+            }
+        }
+        if at != payload.len() {
+            return None;
+        }
+        let fresh: Vec<u32> = (0..n as u32)
+            .filter(|&i| cell[i as usize] == u32::MAX)
+            .collect();
+        let assigned: Vec<u32> = fresh
+            .par_iter()
+            .map(|&i| centroids.assign(points.point(i)))
+            .collect::<Option<_>>()?;
+        for (&i, g) in fresh.iter().zip(assigned) {
+            cell[i as usize] = g;
+        }
+        let mut ivf = Ivf::from_cells(
+            n,
             d,
-            stored.coarse,
-            stored.fine,
-            stored.pq,
-            &[],
-            &[],
+            centroids.coarse,
+            centroids.fine,
+            centroids.pq,
+            &cell,
             trained,
         )?;
-        let m = ivf.pq.bytes();
-        let segments: std::collections::HashMap<(u64, u64, u64), &SegmentCells> =
-            stored.segments.iter().map(|s| (s.segment, s)).collect();
-        let mut cell = Vec::with_capacity(n);
-        let mut codes: Vec<u8> = Vec::with_capacity(n.saturating_mul(m));
-        let mut fresh: Vec<u32> = Vec::new();
-        for o in origins {
-            let held = segments.get(&o.segment).and_then(|s| {
-                let i = s.positions.binary_search(&o.position).ok()?;
-                let (a, b) = (*s.starts.get(i)? as usize, *s.starts.get(i + 1)? as usize);
-                Some((s.cells.get(a..b)?, s.codes.get(a * m..b * m)?))
-            });
-            match held {
-                Some((c, k)) if c.len() == o.components as usize => {
-                    cell.extend_from_slice(c);
-                    codes.extend_from_slice(k);
-                }
-                _ => {
-                    for _ in 0..o.components {
-                        fresh.push(u32::try_from(cell.len()).ok()?);
-                        cell.push(u32::MAX);
-                        codes.extend(std::iter::repeat_n(0, m));
-                    }
+        let place = ivf.places();
+        // pass 2: the codes, in cell order
+        for &off in &offsets {
+            let (seg, _): (SegmentCells, usize) =
+                crate::manifest::decode_bounded(&payload[off..]).ok()?;
+            for (first, a, items) in held(&seg)? {
+                for k in 0..items {
+                    let j = place[first + k] as usize;
+                    ivf.codes[j * m..(j + 1) * m]
+                        .copy_from_slice(&seg.codes[(a + k) * m..(a + k + 1) * m]);
                 }
             }
         }
-        if cell.len() != n {
-            return None;
-        }
-        let placed: Vec<(u32, Vec<u8>)> = fresh
+        let coded: Vec<(usize, Vec<u8>)> = fresh
             .par_iter()
             .map(|&i| {
                 let p = points.point(i);
-                let g = ivf.assign(p)?;
-                let c = ivf.fine_centroid(g as usize)?;
+                let j = place[i as usize] as usize;
+                let c = ivf.fine_centroid(cell[i as usize] as usize)?;
                 let r: Vec<f32> = p.iter().zip(c).map(|(v, c)| v - c).collect();
                 let mut code = vec![0u8; m];
                 ivf.pq.encode(&r, &mut code);
-                Some((g, code))
+                Some((j, code))
             })
             .collect::<Option<_>>()?;
-        for (&i, (g, code)) in fresh.iter().zip(placed) {
-            cell[i as usize] = g;
-            codes[i as usize * m..(i as usize + 1) * m].copy_from_slice(&code);
+        for (j, code) in coded {
+            ivf.codes[j * m..(j + 1) * m].copy_from_slice(&code);
         }
-        let assigned = fresh.len();
-        let coarse = std::mem::take(&mut ivf.coarse);
-        let fine = std::mem::take(&mut ivf.fine);
-        let pq = ivf.pq.clone();
-        let ivf = Ivf::from_parts(n, d, coarse, fine, pq, &cell, &codes, trained)?;
         Some(FromCache {
             ivf,
-            exact: stored.key == key && assigned == 0,
-            assigned,
+            exact: head.key == key && fresh.is_empty(),
+            assigned: fresh.len(),
         })
     }
 
@@ -857,33 +958,24 @@ mod tests {
         let path = std::path::Path::new("SEARCH-CACHE");
         let origins = origins(500, 10);
         let bytes = ivf.to_cache(key, &origins);
-        let back = Ivf::from_cache(path, bytes.clone(), key, &flat, d, &origins).expect("read");
+        let back = Ivf::from_cache(path, &bytes, key, &flat, d, &origins).expect("read");
         assert_eq!(back.ivf, ivf);
         assert!(back.exact);
         assert_eq!(back.assigned, 0);
         // another snapshot key: the same cells, but the cache is worth rewriting
-        let other =
-            Ivf::from_cache(path, bytes.clone(), key ^ 1, &flat, d, &origins).expect("read");
+        let other = Ivf::from_cache(path, &bytes, key ^ 1, &flat, d, &origins).expect("read");
         assert_eq!(other.ivf, ivf);
         assert!(!other.exact);
         for at in [0, bytes.len() / 3, bytes.len() / 2, bytes.len() - 40] {
             let mut bad = bytes.clone();
             bad[at] ^= 0x5a;
             assert!(
-                Ivf::from_cache(path, bad, key, &flat, d, &origins).is_none(),
+                Ivf::from_cache(path, &bad, key, &flat, d, &origins).is_none(),
                 "byte {at}"
             );
         }
         assert!(
-            Ivf::from_cache(
-                path,
-                bytes[..bytes.len() / 2].to_vec(),
-                key,
-                &flat,
-                d,
-                &origins
-            )
-            .is_none()
+            Ivf::from_cache(path, &bytes[..bytes.len() / 2], key, &flat, d, &origins).is_none()
         );
         // well sealed, but a cell beyond the centroids, or more items listed than points
         let seal = |stored: &Stored| {
@@ -911,17 +1003,15 @@ mod tests {
                 codes: vec![0; 2_500 * ivf.pq.bytes()],
             }],
         };
-        assert!(Ivf::from_cache(path, seal(&stored), key, &flat, d, &origins).is_none());
-        assert!(
-            Ivf::from_cache(path, bytes.clone(), key, &flat, d, &self::origins(501, 10)).is_none()
-        );
+        assert!(Ivf::from_cache(path, &seal(&stored), key, &flat, d, &origins).is_none());
+        assert!(Ivf::from_cache(path, &bytes, key, &flat, d, &self::origins(501, 10)).is_none());
         // items the cache does not hold, but no fine cell to put them in
         let empty = Stored {
             fine: vec![Vec::new(); ivf.fine.len()],
             segments: Vec::new(),
             ..stored
         };
-        assert!(Ivf::from_cache(path, seal(&empty), key, &flat, d, &origins).is_none());
+        assert!(Ivf::from_cache(path, &seal(&empty), key, &flat, d, &origins).is_none());
         // centroids that are not numbers or overflow: the items still get a cell each
         let mut wild = ivf.coarse.clone();
         wild[0] = f32::NAN;
@@ -931,7 +1021,7 @@ mod tests {
             fine: ivf.fine.clone(),
             ..empty
         };
-        let read = Ivf::from_cache(path, seal(&odd), key, &flat, d, &origins).expect("read");
+        let read = Ivf::from_cache(path, &seal(&odd), key, &flat, d, &origins).expect("read");
         assert_eq!(read.assigned, 5_000);
         assert_eq!(read.ivf.cells().len(), 5_000);
     }
@@ -963,7 +1053,7 @@ mod tests {
             data: &points[1_000 * d..],
             d,
         };
-        let c = Ivf::from_cache(path, bytes.clone(), 2, &now, d, &now_origins).expect("extended");
+        let c = Ivf::from_cache(path, &bytes, 2, &now, d, &now_origins).expect("extended");
         assert!(!c.exact);
         assert_eq!(c.assigned, 2_000);
         // the old items keep their cells
@@ -976,7 +1066,7 @@ mod tests {
         }
         // rewritten for the new snapshot, it reads back exactly
         let again = c.ivf.to_cache(2, &now_origins);
-        let back = Ivf::from_cache(path, again, 2, &now, d, &now_origins).expect("read");
+        let back = Ivf::from_cache(path, &again, 2, &now, d, &now_origins).expect("read");
         assert!(back.exact);
         assert_eq!(back.ivf, c.ivf);
         // more than GROWTH times the trained items: built again instead
@@ -991,7 +1081,7 @@ mod tests {
                 components: 10,
             })
             .collect();
-        assert!(Ivf::from_cache(path, bytes, 3, &many_flat, d, &many_origins).is_none());
+        assert!(Ivf::from_cache(path, &bytes, 3, &many_flat, d, &many_origins).is_none());
     }
 
     #[test]

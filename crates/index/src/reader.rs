@@ -213,12 +213,7 @@ impl MappedSegment {
                 file::read_all(&path).map_err(|e| IndexError::io("could not read", &path, e))?;
             return Err(segment::length_mismatch(&path, &bytes, entry));
         }
-        // SAFETY: segment files are never modified once renamed into place (writers write new
-        // files; removing a mapped file leaves the mapping valid). Only another program
-        // truncating the file while it is mapped breaks this (index/README.md).
-        #[allow(unsafe_code)]
-        let map = unsafe { memmap2::Mmap::map(&f) }
-            .map_err(|e| IndexError::io("could not memory-map", &path, e))?;
+        let map = file::map(&f, &path)?;
         // The footer's fields without the checksum over the whole file; a field that fails
         // (a version, a kind) may be a damaged byte: the full check then tells which.
         let (checksum, version) =
@@ -551,17 +546,19 @@ impl<const D: usize> IndexReader<D> {
         let live = Live(self);
         let key = self.snapshot_key();
         let path = self.dir.join(SEARCH_CACHE_NAME);
-        if let Ok(bytes) = crate::file::read_all(&path)
-            && let Some(c) = Ivf::from_cache(&path, bytes, key, &live, D, &self.origins)
+        let mapped = crate::file::open_regular(&path)
+            .ok()
+            .and_then(|f| crate::file::map(&f, &path).ok());
+        if let Some(bytes) = mapped
+            && let Some(c) = Ivf::from_cache(&path, &bytes, key, &live, D, &self.origins)
         {
+            drop(bytes);
             if c.exact {
                 return (c.ivf, SearchSource::Cache);
             }
-            let _ = crate::file::write_atomic(
-                &self.dir,
-                SEARCH_CACHE_NAME,
-                &c.ivf.to_cache(key, &self.origins),
-            );
+            let _ = c
+                .ivf
+                .write_cache(&self.dir, SEARCH_CACHE_NAME, key, &self.origins);
             return (
                 c.ivf,
                 SearchSource::CacheUpdated {
@@ -570,11 +567,7 @@ impl<const D: usize> IndexReader<D> {
             );
         }
         let ivf = Ivf::build(&live, D);
-        let _ = crate::file::write_atomic(
-            &self.dir,
-            SEARCH_CACHE_NAME,
-            &ivf.to_cache(key, &self.origins),
-        );
+        let _ = ivf.write_cache(&self.dir, SEARCH_CACHE_NAME, key, &self.origins);
         (ivf, SearchSource::Built)
     }
 
