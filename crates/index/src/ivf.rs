@@ -191,6 +191,7 @@ struct SegmentCells {
     /// Global fine cell of each component of each record held.
     cells: Vec<u32>,
     /// The code of each component of each record held, in the order of `cells`.
+    #[serde(with = "serde_bytes")]
     codes: Vec<u8>,
 }
 
@@ -378,39 +379,42 @@ impl Ivf {
         let all: Vec<u32> = (0..n as u32).collect();
         let coarse = kmeans(points, d, &all, c);
         let point = |i: u32| points.point(i);
-        let top: Vec<usize> = all
+        // Every pass over all the descriptors reads them in item order, the order they are
+        // stored in: on an index larger than memory, any other order rereads them from disk.
+        let top: Vec<u32> = all
             .par_iter()
-            .map(|&i| nearest(&coarse, d, point(i)))
+            .map(|&i| nearest(&coarse, d, point(i)) as u32)
             .collect();
         let mut members: Vec<Vec<u32>> = vec![Vec::new(); coarse.len() / d];
         for (i, &t) in top.iter().enumerate() {
-            members[t].push(i as u32);
+            members[t as usize].push(i as u32);
         }
-        // each coarse cell: its fine centroids and the fine cell of each member
-        let cells: Vec<(Vec<f32>, Vec<u32>)> = members
+        // each coarse cell's fine centroids, fitted on a sample of its members
+        let fine: Vec<Vec<f32>> = members
             .par_iter()
             .map(|m| {
                 if m.is_empty() {
-                    return (Vec::new(), Vec::new());
+                    Vec::new()
+                } else {
+                    kmeans(points, d, m, c)
                 }
-                let fine = kmeans(points, d, m, c);
-                let of: Vec<u32> = m
-                    .iter()
-                    .map(|&i| nearest(&fine, d, point(i)) as u32)
-                    .collect();
-                (fine, of)
             })
             .collect();
-        let mut cell = vec![0u32; n];
+        drop(members);
+        let mut bases = Vec::with_capacity(fine.len());
         let mut base = 0u32;
-        let mut fine = Vec::with_capacity(cells.len());
-        for ((centroids, of), m) in cells.into_iter().zip(&members) {
-            for (&i, &f) in m.iter().zip(&of) {
-                cell[i as usize] = base + f;
-            }
-            base += (centroids.len() / d) as u32;
-            fine.push(centroids);
+        for f in &fine {
+            bases.push(base);
+            base += (f.len() / d) as u32;
         }
+        let cell: Vec<u32> = all
+            .par_iter()
+            .map(|&i| {
+                let t = top[i as usize] as usize;
+                bases[t] + nearest(&fine[t], d, point(i)) as u32
+            })
+            .collect();
+        drop(top);
         // the quantiser, fitted on the residuals of an evenly spaced sample
         let flat_fine = fine.concat();
         let residual = |i: u32| -> Vec<f32> {
@@ -423,13 +427,23 @@ impl Ivf {
         let pq = Sq::train(&sample, d);
         let mut ivf = Ivf::from_cells(n, d, coarse, fine, pq, &cell, n)
             .expect("cells computed from the centroids are in range");
-        // each item's code, in cell order
+        // the codes, items in item order a block at a time, each put in its place
         let m = ivf.pq.bytes();
-        let (items, pq) = (&ivf.items, &ivf.pq);
-        ivf.codes
-            .par_chunks_mut(m)
-            .zip(items.par_iter())
-            .for_each(|(out, &i)| pq.encode(&residual(i), out));
+        let place = ivf.places();
+        const BLOCK: usize = 1 << 18;
+        let mut block = vec![0u8; BLOCK * m];
+        for start in (0..n).step_by(BLOCK) {
+            let len = (n - start).min(BLOCK);
+            let pq = &ivf.pq;
+            block[..len * m]
+                .par_chunks_mut(m)
+                .enumerate()
+                .for_each(|(k, out)| pq.encode(&residual((start + k) as u32), out));
+            for k in 0..len {
+                let j = place[start + k] as usize;
+                ivf.codes[j * m..(j + 1) * m].copy_from_slice(&block[k * m..(k + 1) * m]);
+            }
+        }
         ivf
     }
 

@@ -18,7 +18,7 @@
 //! ([`IndexReader::open`]) or memory-mapped with records decoded on use
 //! ([`IndexReader::open_mapped`]), with a search over all live component descriptors for
 //! [`IndexReader::nearest_components`] (a KD-tree, `kiddo`, on small indexes; an inverted file
-//! with product-quantised codes on large ones). Readers need no lock and may run while a
+//! with quantised residuals on large ones). Readers need no lock and may run while a
 //! writer works.
 //!
 //! Checking: [`verify`] reports every damaged, missing or incompatible file without changing

@@ -27,7 +27,7 @@
 //!   degrades towards a linear scan for high-dimensional data — which 64-value descriptors
 //!   are: at 84,000 components the tree took 280 ms for a query's 84 searches;
 //! - from there, approximate: an inverted file with a two-level k-means quantiser and
-//!   product-quantised residuals (`ivf`): about 12 cells of 512 codes of 16 bytes scanned per
+//!   residuals coded in one byte per value (`ivf`): about 12 cells of 512 codes scanned per
 //!   search, the nearest by code measured exactly (BENCHMARKS.md, "Candidate search").
 //!   [`SearchMode`] chooses otherwise; an exact search of more than [`EXACT_TREE_MAX`]
 //!   components scans every descriptor in place instead of copying them into a tree.
