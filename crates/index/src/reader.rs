@@ -12,11 +12,11 @@
 //! - [`IndexReader::open`] reads every segment whole, checking every footer, checksum, length
 //!   and record, and keeps the records decoded (what listing, merging and checking want);
 //! - [`IndexReader::open_mapped`] memory-maps segments of format 5 and checks their tables
-//!   only (32 bytes per shape: 0.3 ms at 10,000 shapes against 0.4–0.9 s for reading them
-//!   whole; BENCHMARKS.md, "Candidate search"); the search reads descriptors in place from the
-//!   maps, and each record is decoded and checked when asked for, on each call (what a
-//!   process answering queries wants: it holds the tables, the search structure and the
-//!   records its callers hold).
+//!   only (32 bytes per shape: 4 ms at 100,000 shapes against 4.9 s for reading them whole,
+//!   56 ms at a million; BENCHMARKS.md, "A million shapes"); the search reads descriptors in
+//!   place from the maps, and each record is decoded and checked when asked for, on each
+//!   call (what a process answering queries wants: it holds the tables, the search structure
+//!   and the records its callers hold).
 //!
 //! Search, built on the first search (or [`IndexReader::prepare_search`]) so that listing or
 //! looking up shapes does not pay for it:
