@@ -676,7 +676,8 @@ impl Ivf {
         d: usize,
         origins: &[Origin],
     ) -> Option<FromCache> {
-        crate::file::check_footer(
+        // a cache written by another format version (whose payload differs) is rebuilt
+        let (_, version) = crate::file::check_footer(
             path,
             bytes,
             crate::file::KIND_SEARCH_CACHE,
@@ -684,6 +685,9 @@ impl Ivf {
             true,
         )
         .ok()?;
+        if version != crate::FORMAT_VERSION {
+            return None;
+        }
         Ivf::from_payload(
             &bytes[..bytes.len() - crate::file::FOOTER_LEN],
             key,
@@ -975,6 +979,10 @@ mod tests {
         let back = Ivf::from_cache(path, &bytes, key, &flat, d, &origins).expect("read");
         assert_eq!(back.ivf, ivf);
         assert!(back.exact);
+        // the same payload sealed as another format version (version 4 held other fields)
+        let payload = bytes[..bytes.len() - crate::file::FOOTER_LEN].to_vec();
+        let (older, _) = crate::file::seal(payload, crate::file::KIND_SEARCH_CACHE, 4);
+        assert!(Ivf::from_cache(path, &older, key, &flat, d, &origins).is_none());
         assert_eq!(back.assigned, 0);
         // another snapshot key: the same cells, but the cache is worth rewriting
         let other = Ivf::from_cache(path, &bytes, key ^ 1, &flat, d, &origins).expect("read");
