@@ -2,7 +2,7 @@
 //! two-level k-means quantiser and quantised residuals (the IVFADC scheme of H. Jégou,
 //! M. Douze and C. Schmid, "Product quantization for nearest neighbor search", IEEE TPAMI
 //! 33(1), 2011, Section IV, with a scalar quantiser of the residuals instead of a product
-//! quantiser, and the nearest by code measured again exactly).
+//! quantiser).
 //!
 //! The descriptors are split into `c` coarse cells by k-means, each coarse cell into `c` fine
 //! cells by k-means over its members, with `c ≈ √(n / CELL_SIZE)` so that a fine cell holds about
@@ -11,12 +11,13 @@
 //! levels spanning that value's range over a sample of residuals (64 bytes instead of 256 for
 //! 64 values). A query ranks the coarse centroids, takes the fine cells of its
 //! [`COARSE_PROBES`] nearest coarse cells, and scans the [`FINE_PROBES`] fine cells with the
-//! nearest centroids, each code's distance to the query computed from the levels it stands for:
-//! about `FINE_PROBES × CELL_SIZE` codes instead of `n` descriptors; the [`RERANK`]`× k`
-//! nearest by code are then measured exactly on the descriptors themselves, read in place. A
-//! true neighbour is missed when it lies in a cell whose centroid is not among those, or when
-//! rounding puts it beyond the re-measured ones, so recall is measured, not guaranteed
-//! (BENCHMARKS.md, "Candidate search").
+//! nearest centroids, each code's distance to the query computed from the levels it stands for
+//! (asymmetric distances, Jégou et al. Section III.A): about `FINE_PROBES × CELL_SIZE` codes
+//! instead of `n` descriptors, and no descriptor read, so that an index larger than memory is
+//! searched from the inverted file alone. A true neighbour is missed when it lies in a cell
+//! whose centroid is not among those, or when rounding (at most half a level per value) puts it
+//! beyond the `k` nearest by code, so recall is measured, not guaranteed (BENCHMARKS.md,
+//! "Candidate search").
 //!
 //! A product quantiser (16 bytes per 64 values, 256 centroids per run of 4 values) was
 //! measured first: its codes are 4 times smaller, but its rounding is coarser than the
@@ -42,8 +43,6 @@ const SAMPLE_PER_CENTROID: usize = 48;
 const LEVELS: usize = 256;
 /// Residuals the quantiser's ranges are taken from, at most.
 const SQ_SAMPLE: usize = 65_536;
-/// Candidates measured exactly per search, as a multiple of the neighbours asked for.
-pub const RERANK: usize = 2;
 
 /// Squared Euclidean distance over eight partial sums, so that the loop vectorises (the
 /// summation order differs from [`crate::squared_distance`]: results agree to rounding).
@@ -826,9 +825,11 @@ impl Ivf {
     }
 
     /// About the `k` nearest items to `q` (see the module documentation), nearest first, with
-    /// their squared distances ([`distance_sq`] to their descriptors in `points`); ties by
-    /// item id.
-    pub(crate) fn search(&self, q: &[f32], k: usize, points: &impl Points) -> Vec<(u32, f32)> {
+    /// their squared distances to `q` as their codes give them (the residual each code stands
+    /// for, added to its cell's centroid; [`Ivf::code_error`] bounds how far that is from the
+    /// descriptor itself); ties by item id. No descriptor is read: on an index larger than
+    /// memory, the search touches only the inverted file.
+    pub(crate) fn search(&self, q: &[f32], k: usize) -> Vec<(u32, f32)> {
         let d = self.d;
         let mut coarse: Vec<(f32, usize)> = self
             .coarse
@@ -864,15 +865,27 @@ impl Ivf {
                 let code = &self.codes[j * m..(j + 1) * m];
                 found.push((self.items[j], self.pq.distance(&shifted, code)));
             }
-        }
-        // the nearest by code, measured exactly
-        keep_smallest(&mut found, k.saturating_mul(RERANK), by);
-        for f in &mut found {
-            f.1 = distance_sq(points.point(f.0), q);
+            // bounded memory whatever the cells' sizes
+            if found.len() >= 4 * k.max(CELL_SIZE) {
+                keep_smallest(&mut found, k, by);
+            }
         }
         keep_smallest(&mut found, k, by);
         found.sort_by(by);
         found
+    }
+
+    /// The largest distance between a residual within the quantiser's ranges and the one its
+    /// code stands for (half a level per value): the square root of a code's squared distance
+    /// to a query differs from the true one by at most this, for descriptors whose residuals
+    /// lie within the ranges fitted (values beyond take the end levels and may differ more).
+    pub(crate) fn code_error(&self) -> f32 {
+        self.pq
+            .step
+            .iter()
+            .map(|s| (0.5 * s) * (0.5 * s))
+            .sum::<f32>()
+            .sqrt()
     }
 
     /// Bytes held (centroids, items, codes and the quantiser).
@@ -938,9 +951,18 @@ mod tests {
         let (mut hits, mut total) = (0, 0);
         for qi in (0..n).step_by(97) {
             let q = &points[qi * d..(qi + 1) * d];
-            let got = ivf.search(q, 20, &flat);
+            let got = ivf.search(q, 20);
             assert_eq!(got[0].0, qi as u32);
-            assert_eq!(got, again.search(q, 20, &flat));
+            assert_eq!(got, again.search(q, 20));
+            // each distance by code is within the rounding bound of the true one
+            for &(i, dc) in &got {
+                let de = distance_sq(flat.point(i), q);
+                assert!(
+                    (dc.sqrt() - de.sqrt()).abs() <= ivf.code_error() * 1.001 + 1e-5,
+                    "item {i}: by code {dc}, exact {de}, bound {}",
+                    ivf.code_error()
+                );
+            }
             let want = exact(&points, d, q, 20);
             hits += got.iter().filter(|g| want.contains(&g.0)).count();
             total += want.len();
@@ -1084,7 +1106,9 @@ mod tests {
         // every new item is found by its own descriptor
         for i in (3_000..5_000u32).step_by(97) {
             let q = now.point(i);
-            assert_eq!(c.ivf.search(q, 1, &now)[0], (i, 0.0));
+            let (found, dist) = c.ivf.search(q, 1)[0];
+            assert_eq!(found, i);
+            assert!(dist.sqrt() <= c.ivf.code_error() * 1.001 + 1e-5);
         }
         // rewritten for the new snapshot, it reads back exactly
         let again = c.ivf.to_cache(2, &now_origins);

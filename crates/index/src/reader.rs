@@ -73,7 +73,10 @@ pub struct ComponentMatch {
     pub shape: ShapeId,
     /// Index of the component in the shape's `components`.
     pub component: usize,
-    /// Squared Euclidean distance between the query and the component's descriptor.
+    /// Squared Euclidean distance between the query and the component's descriptor; with an
+    /// approximate search ([`IndexReader::search_is_approximate`]), the distance to the
+    /// descriptor as the inverted file's code of it stands for (its square root within
+    /// [`IndexReader::code_error`] of the true one), so that no descriptor is read.
     pub distance_sq: f32,
 }
 
@@ -257,6 +260,29 @@ impl MappedSegment {
         let block = crate::mapped::block(self.payload(), &self.table)?;
         let start = e.first as usize * dim;
         block.get(start..start + e.components as usize * dim)
+    }
+
+    /// Asks the system to start reading the record at `position` and its descriptors (a
+    /// hint: errors are of no consequence and ignored).
+    fn prefetch(&self, position: usize, dim: usize) {
+        #[cfg(unix)]
+        if let Some(e) = self.table.entries.get(position) {
+            let advise = |offset: usize, len: usize| {
+                if len > 0 {
+                    let _ = self
+                        .map
+                        .advise_range(memmap2::Advice::WillNeed, offset, len);
+                }
+            };
+            advise(e.offset as usize, e.len as usize);
+            let first = 4 * dim * e.first as usize;
+            advise(
+                self.table.block.start + first,
+                4 * dim * e.components as usize,
+            );
+        }
+        #[cfg(not(unix))]
+        let _ = (position, dim);
     }
 
     fn head(&self) -> Result<&segment::SegmentHead> {
@@ -571,6 +597,13 @@ impl<const D: usize> IndexReader<D> {
         (ivf, SearchSource::Built)
     }
 
+    /// How far the square root of an approximate search's distance may be from the true
+    /// distance, for descriptors within the ranges its quantiser was fitted on (building the
+    /// search structure if needed); 0 for the exact search.
+    pub fn code_error(&self) -> f32 {
+        self.search().ivf.as_ref().map_or(0.0, Ivf::code_error)
+    }
+
     /// Bytes held by the search structure (building it if needed): the inverted file's, or
     /// an estimate of the KD-tree's (its copy of the descriptors and item ids).
     pub fn search_bytes(&self) -> usize {
@@ -705,6 +738,22 @@ impl<const D: usize> IndexReader<D> {
         }
     }
 
+    /// Asks the system to start reading the records of `ids` that lie in memory-mapped
+    /// segments (their bytes and descriptors), so that the [`IndexReader::get`] calls that
+    /// follow wait on those reads together rather than one after another: on an index larger
+    /// than memory, a query's candidates are read from the disk at once instead of in turn.
+    /// A hint only: nothing is read or checked here; ids not live are skipped.
+    pub fn prefetch(&self, ids: &[ShapeId]) {
+        for id in ids {
+            if let Ok(i) = self.slots.binary_search_by_key(id, |s| s.id) {
+                let slot = self.slots[i];
+                if let Some(m) = self.mapped.get(slot.segment as usize) {
+                    m.prefetch(slot.position as usize, D);
+                }
+            }
+        }
+    }
+
     /// The canonical path of slot `i`, without decoding a mapped record.
     fn canonical_path_at(&self, i: usize) -> Result<&Path> {
         let slot = self.slots[i];
@@ -790,7 +839,9 @@ impl<const D: usize> IndexReader<D> {
     }
 
     /// The `k` live components nearest to `query` (squared Euclidean distance), closest first;
-    /// ties are ordered by shape id then component index. Fewer if the index has fewer.
+    /// ties are ordered by shape id then component index. Fewer if the index has fewer. The
+    /// approximate search ranks by, and returns, the distances the inverted file's codes give
+    /// (see [`ComponentMatch::distance_sq`]).
     ///
     /// Errors with [`IndexError::InvalidQuery`] if `query` holds a NaN or infinity.
     pub fn nearest_components(&self, query: &[f32; D], k: usize) -> Result<Vec<ComponentMatch>> {
@@ -804,11 +855,23 @@ impl<const D: usize> IndexReader<D> {
         };
         let search = self.search();
         let items: Vec<usize> = match (&search.ivf, &search.tree) {
-            (Some(ivf), _) => ivf
-                .search(query, qty.get(), &Live(self))
-                .into_iter()
-                .map(|(i, _)| i as usize)
-                .collect(),
+            (Some(ivf), _) => {
+                // distances as the codes give them: no descriptor is read
+                let mut out: Vec<ComponentMatch> = ivf
+                    .search(query, qty.get())
+                    .into_iter()
+                    .filter_map(|(i, distance_sq)| {
+                        let (slot, component) = self.owner(i as usize)?;
+                        Some(ComponentMatch {
+                            shape: self.slots[slot].id,
+                            component,
+                            distance_sq,
+                        })
+                    })
+                    .collect();
+                sort_matches(&mut out);
+                return Ok(out);
+            }
             (None, Some(tree)) => tree
                 .nearest_n::<SquaredEuclidean>(query, qty)
                 .into_iter()

@@ -184,6 +184,8 @@ fn match_candidates(
         bound: f64,
     }
     let mq = query.descriptors.len();
+    // every candidate's record is read below: have the system read them all at once
+    reader.prefetch(&by_vote.iter().map(|c| c.0).collect::<Vec<_>>());
     let candidates: Vec<Option<Candidate>> = by_vote
         .par_iter()
         .map(|&(id, _)| {
