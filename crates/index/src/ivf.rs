@@ -2,22 +2,31 @@
 //! two-level k-means quantiser and quantised residuals (the IVFADC scheme of H. Jégou,
 //! M. Douze and C. Schmid, "Product quantization for nearest neighbor search", IEEE TPAMI
 //! 33(1), 2011, Section IV, with a scalar quantiser of the residuals instead of a product
-//! quantiser).
+//! quantiser, and the best re-ranked by a finer code, as in Jégou, Tavenard, Douze and Amsaleg,
+//! ICASSP 2011: see [`Sq`]).
 //!
 //! The descriptors are split into `c` coarse cells by k-means, each coarse cell into `c` fine
 //! cells by k-means over its members, with `c ≈ √(n / CELL_SIZE)` so that a fine cell holds about
-//! [`CELL_SIZE`] descriptors. Each descriptor is stored once, in its fine cell, as a code of one
-//! byte per value: its residual from the fine centroid, each value rounded to the nearest of 256
-//! levels spanning that value's range over a sample of residuals (64 bytes instead of 256 for
-//! 64 values). A query ranks the coarse centroids, takes the fine cells of its
-//! [`COARSE_PROBES`] nearest coarse cells, and scans the [`FINE_PROBES`] fine cells with the
-//! nearest centroids, each code's distance to the query computed from the levels it stands for
-//! (asymmetric distances, Jégou et al. Section III.A): about `FINE_PROBES × CELL_SIZE` codes
-//! instead of `n` descriptors, and no descriptor read, so that an index larger than memory is
-//! searched from the inverted file alone. A true neighbour is missed when it lies in a cell
-//! whose centroid is not among those, or when rounding (at most half a level per value) puts it
-//! beyond the `k` nearest by code, so recall is measured, not guaranteed (BENCHMARKS.md,
-//! "Candidate search").
+//! [`CELL_SIZE`] descriptors. Each descriptor is stored once, in its fine cell, as a code of two
+//! bytes per value: its residual from the fine centroid, each value rounded to the nearest of
+//! 65,536 levels spanning that value's range over the cell's members (128 bytes instead of 256
+//! for 64 values), kept as two arrays: the first bytes, the second bytes. A query ranks the
+//! coarse centroids, takes the fine cells of its [`COARSE_PROBES`] nearest coarse cells, and
+//! scans the [`FINE_PROBES`] fine cells with the nearest centroids, each code's distance to the
+//! query computed from the levels its first bytes stand for (asymmetric distances, Jégou et al.
+//! Section III.A); the [`RERANK`]` × k` nearest are ranked again by their whole codes. That is
+//! about `FINE_PROBES × CELL_SIZE` codes instead of `n` descriptors, and no descriptor read,
+//! so that an index larger than memory is searched from the inverted file alone. A true
+//! neighbour is missed when it lies in a cell whose centroid is not among those, or when
+//! rounding puts it beyond the re-ranked ones or (by at most half a level per value) beyond the
+//! `k` nearest by whole code, so recall is measured, not guaranteed (BENCHMARKS.md, "Candidate
+//! search").
+//!
+//! One byte per value with one range for all cells, and no re-ranking, was measured too: the
+//! ranking's top 10 then matched the exact one's for 9 of 20 queries at 100,000 shapes, against
+//! 20 of 20 with two bytes (BENCHMARKS.md, "Candidate search"): a level of 256 over the whole
+//! range of residuals is coarser than the differences between near-duplicate parts. Ranges
+//! per cell make the levels fine where parts crowd.
 //!
 //! A product quantiser (16 bytes per 64 values, 256 centroids per run of 4 values) was
 //! measured first: its codes are 4 times smaller, but its rounding is coarser than the
@@ -39,10 +48,17 @@ pub const FINE_PROBES: usize = 12;
 const ITERATIONS: usize = 8;
 /// Sample points per centroid that k-means is fitted on.
 const SAMPLE_PER_CENTROID: usize = 48;
-/// Levels of the scalar quantiser (one byte per value).
-const LEVELS: usize = 256;
-/// Residuals the quantiser's ranges are taken from, at most.
-const SQ_SAMPLE: usize = 65_536;
+/// Levels of the scalar quantiser (two bytes per value: the scan reads the first, the
+/// re-ranking both).
+const LEVELS: usize = 65_536;
+/// Levels in the run that a code's first byte names (its second byte picks one of them).
+const RUN: usize = 256;
+/// Candidates ranked by the first bytes of their codes that are ranked again by whole codes,
+/// as a multiple of the neighbours asked for.
+pub const RERANK: usize = 2;
+/// The first field of a search cache's payload: caches whose payload is laid out otherwise
+/// (an earlier layout of the same format version) are rebuilt instead of misread.
+const CACHE_TAG: u64 = u64::from_le_bytes(*b"KCIVF16\0");
 
 /// Squared Euclidean distance over eight partial sums, so that the loop vectorises (the
 /// summation order differs from [`crate::squared_distance`]: results agree to rounding).
@@ -179,7 +195,7 @@ pub(crate) struct Origin {
 }
 
 /// The cells of one segment's records, as a cache file holds them.
-#[derive(serde::Serialize, serde::Deserialize)]
+#[derive(Clone, serde::Serialize, serde::Deserialize)]
 struct SegmentCells {
     /// The segment's number, length and checksum.
     segment: (u64, u64, u64),
@@ -189,15 +205,20 @@ struct SegmentCells {
     starts: Vec<u32>,
     /// Global fine cell of each component of each record held.
     cells: Vec<u32>,
-    /// The code of each component of each record held, in the order of `cells`.
+    /// The first byte per value of the code of each component of each record held, in the
+    /// order of `cells`.
     #[serde(with = "serde_bytes")]
     codes: Vec<u8>,
+    /// The second bytes of the same codes, in the same order.
+    #[serde(with = "serde_bytes")]
+    refine: Vec<u8>,
 }
 
 /// The start of a cache payload, as written (followed by a `u64` segment count and each
 /// segment's [`SegmentCells`]).
 #[derive(serde::Serialize)]
 struct Head<'a> {
+    tag: u64,
     key: u64,
     d: u32,
     trained: u64,
@@ -209,6 +230,7 @@ struct Head<'a> {
 /// [`Head`] as read.
 #[derive(serde::Deserialize)]
 struct HeadOwned {
+    tag: u64,
     key: u64,
     d: u32,
     trained: u64,
@@ -219,8 +241,9 @@ struct HeadOwned {
 
 /// What a cache file holds, as one value (the tests craft caches with it).
 #[cfg(test)]
-#[derive(serde::Serialize, serde::Deserialize)]
+#[derive(Clone, serde::Serialize, serde::Deserialize)]
 struct Stored {
+    tag: u64,
     /// The snapshot key the cache was written for (equal: nothing to update).
     key: u64,
     d: u32,
@@ -266,107 +289,172 @@ pub(crate) struct Ivf {
     coarse: Vec<f32>,
     /// Per coarse cell: its fine centroids, flat.
     fine: Vec<Vec<f32>>,
+    /// Per coarse cell: the global number of its first fine cell.
+    bases: Vec<usize>,
     /// Per coarse cell, per fine cell: the range of `items` / `data` it holds.
     ranges: Vec<Vec<(u32, u32)>>,
     /// Item ids (positions in the reader's component list), grouped by fine cell.
     items: Vec<u32>,
     /// The quantiser of the residuals.
     pq: Sq,
-    /// The codes of `items`, in the same order, `pq.bytes()` each.
+    /// The first bytes of the codes of `items`, in the same order, `pq.bytes()` each.
     codes: Vec<u8>,
+    /// The second bytes of the same codes, laid out alike.
+    refine: Vec<u8>,
     /// Items the centroids were fitted on.
     trained: usize,
 }
 
-/// A scalar quantiser of residuals: value `i` of a residual is coded by one byte, the nearest
-/// of 256 levels evenly spaced from `min[i]` by `step[i]` (the range of that value over the
-/// fitted sample; values beyond it take the end levels).
+/// A scalar quantiser of residuals, one per fine cell: value `i` of a residual in cell `g` is
+/// coded by two bytes, the nearest of 65,536 levels evenly spaced from `min[g·d + i]` by
+/// `step[g·d + i]` (the range of that value over the cell's members when it was built; values
+/// beyond it, of parts put in the cell later, take the end levels). Ranges per cell follow the
+/// data's density: where parts crowd (near duplicates), a cell is small and so are its steps.
+/// The first byte alone names a run of 256 levels, which stands for the middle of the run: the
+/// scan ranks codes by their first bytes (a half of the memory read), and the best are ranked
+/// again by both bytes (re-ranking with a finer code of the first one's rounding, as in
+/// H. Jégou, R. Tavenard, M. Douze and L. Amsaleg, "Searching in one billion vectors: re-rank
+/// with source coding", ICASSP 2011).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub(crate) struct Sq {
+    /// Bytes per code half (values per descriptor).
+    d: u32,
     min: Vec<f32>,
     step: Vec<f32>,
 }
 
+/// A query's residual from one fine centroid, prepared for [`Sq::coarse_distance`] and
+/// [`Sq::distance`] of that cell's codes.
+struct Shifted {
+    /// The residual minus the first level.
+    fine: Vec<f32>,
+    /// The residual minus the middle of the first run of levels.
+    coarse: Vec<f32>,
+    /// The step between runs of levels ([`RUN`] steps).
+    run: Vec<f32>,
+    /// The step between levels.
+    step: Vec<f32>,
+}
+
 impl Sq {
-    /// Fits the quantiser of vectors of `d` values on `sample` (flat).
-    fn train(sample: &[f32], d: usize) -> Sq {
-        let mut lo = vec![f32::INFINITY; d];
-        let mut hi = vec![f32::NEG_INFINITY; d];
-        for v in sample.chunks_exact(d.max(1)) {
-            for i in 0..d {
-                lo[i] = lo[i].min(v[i]);
-                hi[i] = hi[i].max(v[i]);
-            }
-        }
-        let mut min = Vec::with_capacity(d);
-        let mut step = Vec::with_capacity(d);
-        for (l, h) in lo.into_iter().zip(hi) {
+    /// The quantiser of cells whose residual values range from `lo` to `hi` (per cell, `d`
+    /// values each; a cell without members has infinite bounds).
+    fn from_ranges(lo: &[f32], hi: &[f32], d: usize) -> Sq {
+        let mut min = Vec::with_capacity(lo.len());
+        let mut step = Vec::with_capacity(lo.len());
+        for (&l, &h) in lo.iter().zip(hi) {
             if l.is_finite() && h.is_finite() && h > l {
                 min.push(l);
                 step.push((h - l) / (LEVELS - 1) as f32);
             } else {
-                // no sample, or one value: every code stands for it
+                // no member, or one value: every code stands for it
                 min.push(if l.is_finite() { l } else { 0.0 });
                 step.push(0.0);
             }
         }
-        Sq { min, step }
+        Sq {
+            d: d as u32,
+            min,
+            step,
+        }
     }
 
-    /// Bytes per code.
+    /// Bytes per code, in each of its two halves.
     fn bytes(&self) -> usize {
-        self.min.len()
+        self.d as usize
     }
 
-    /// Whether the quantiser fits vectors of `d` values, with finite levels.
-    fn fits(&self, d: usize) -> bool {
+    /// Whether the quantiser fits `cells` cells of vectors of `d` values, with finite levels.
+    fn fits(&self, d: usize, cells: usize) -> bool {
         d >= 1
-            && self.min.len() == d
-            && self.step.len() == d
+            && self.d as usize == d
+            && cells.checked_mul(d) == Some(self.min.len())
+            && self.step.len() == self.min.len()
             && self.min.iter().all(|v| v.is_finite())
             && self.step.iter().all(|v| v.is_finite() && *v >= 0.0)
     }
 
-    /// The code of `r` into `out` (`bytes()` long).
-    fn encode(&self, r: &[f32], out: &mut [u8]) {
-        for (((o, v), m), s) in out.iter_mut().zip(r).zip(&self.min).zip(&self.step) {
-            *o = if *s > 0.0 {
-                ((v - m) / s).round().clamp(0.0, (LEVELS - 1) as f32) as u8
+    /// The levels' origins and steps of cell `g`.
+    fn cell(&self, g: usize) -> (&[f32], &[f32]) {
+        let d = self.d as usize;
+        (
+            &self.min[g * d..(g + 1) * d],
+            &self.step[g * d..(g + 1) * d],
+        )
+    }
+
+    /// The code of `r`, a residual in cell `g`: its first bytes into `first`, its second bytes
+    /// into `second` (each `bytes()` long).
+    fn encode(&self, g: usize, r: &[f32], first: &mut [u8], second: &mut [u8]) {
+        let (min, step) = self.cell(g);
+        for (i, v) in r.iter().enumerate() {
+            let (m, s) = (min[i], step[i]);
+            let level = if s > 0.0 {
+                ((v - m) / s).round().clamp(0.0, (LEVELS - 1) as f32) as u16
             } else {
                 0
             };
+            [first[i], second[i]] = level.to_be_bytes();
         }
     }
 
-    /// `r` shifted by the levels' origin (what [`Sq::distance`] takes).
-    fn shift(&self, r: &[f32], out: &mut [f32]) {
-        for ((o, v), m) in out.iter_mut().zip(r).zip(&self.min) {
-            *o = v - m;
+    /// `r`, a query's residual from the centroid of cell `g`, prepared for the distances to
+    /// that cell's codes.
+    fn shift(&self, g: usize, r: &[f32]) -> Shifted {
+        let (min, step) = self.cell(g);
+        let half_run = 0.5 * (RUN - 1) as f32;
+        let mut out = Shifted {
+            fine: Vec::with_capacity(r.len()),
+            coarse: Vec::with_capacity(r.len()),
+            run: Vec::with_capacity(r.len()),
+            step: step.to_vec(),
+        };
+        for ((v, m), s) in r.iter().zip(min).zip(step) {
+            out.fine.push(v - m);
+            out.coarse.push(v - m - half_run * s);
+            out.run.push(RUN as f32 * s);
         }
+        out
     }
 
-    /// Squared distance between a residual shifted by [`Sq::shift`] and the residual `code`
-    /// stands for (eight partial sums, so that the loop vectorises).
+    /// Squared distance between a residual and the middle of the runs of levels that the
+    /// first bytes of a code name (eight partial sums, so that the loop vectorises).
     #[inline]
-    fn distance(&self, shifted: &[f32], code: &[u8]) -> f32 {
+    fn coarse_distance(q: &Shifted, first: &[u8]) -> f32 {
         let mut acc = [0f32; 8];
-        let chunks = shifted
+        let chunks = q
+            .coarse
             .chunks_exact(8)
-            .zip(code.chunks_exact(8))
-            .zip(self.step.chunks_exact(8));
+            .zip(first.chunks_exact(8))
+            .zip(q.run.chunks_exact(8));
         for ((a, c), s) in chunks {
             for l in 0..8 {
                 let d = a[l] - s[l] * f32::from(c[l]);
                 acc[l] += d * d;
             }
         }
-        let done = shifted.len() / 8 * 8;
-        let mut tail = 0f32;
-        for i in done..shifted.len() {
-            let d = shifted[i] - self.step[i] * f32::from(code[i]);
-            tail += d * d;
-        }
+        let done = q.coarse.len() / 8 * 8;
+        let tail: f32 = q.coarse[done..]
+            .iter()
+            .zip(&q.run[done..])
+            .zip(&first[done..])
+            .map(|((a, s), c)| {
+                let d = a - s * f32::from(*c);
+                d * d
+            })
+            .sum();
         acc.iter().sum::<f32>() + tail
+    }
+
+    /// Squared distance between a residual and the one a whole code stands for.
+    fn distance(q: &Shifted, first: &[u8], second: &[u8]) -> f32 {
+        let mut sum = 0f32;
+        for i in 0..q.fine.len() {
+            let level = f32::from(u16::from_be_bytes([first[i], second[i]]));
+            let d = q.fine[i] - q.step[i] * level;
+            sum += d * d;
+        }
+        sum
     }
 }
 
@@ -414,16 +502,44 @@ impl Ivf {
             })
             .collect();
         drop(top);
-        // the quantiser, fitted on the residuals of an evenly spaced sample
+        // the quantiser: each fine cell's range of each residual value, over all its members
         let flat_fine = fine.concat();
+        let cells = base as usize;
         let residual = |i: u32| -> Vec<f32> {
             let g = cell[i as usize] as usize;
             let c = &flat_fine[g * d..(g + 1) * d];
             point(i).iter().zip(c).map(|(v, c)| v - c).collect()
         };
-        let step = (n / SQ_SAMPLE).max(1);
-        let sample: Vec<f32> = (0..n as u32).step_by(step).flat_map(&residual).collect();
-        let pq = Sq::train(&sample, d);
+        const PIECE: usize = 1 << 16;
+        let pieces = n.div_ceil(PIECE);
+        let empty = || {
+            (
+                vec![f32::INFINITY; cells * d],
+                vec![f32::NEG_INFINITY; cells * d],
+            )
+        };
+        let (lo, hi) = (0..pieces)
+            .into_par_iter()
+            // a few accumulators (each holds two values per cell and descriptor value)
+            .with_min_len(pieces.div_ceil(4).max(1))
+            .fold(empty, |(mut lo, mut hi), p| {
+                let items = p * PIECE..((p + 1) * PIECE).min(n);
+                for (i, &g) in items.clone().zip(&cell[items]) {
+                    let g = g as usize;
+                    for (v, r) in residual(i as u32).into_iter().enumerate() {
+                        lo[g * d + v] = lo[g * d + v].min(r);
+                        hi[g * d + v] = hi[g * d + v].max(r);
+                    }
+                }
+                (lo, hi)
+            })
+            .reduce(empty, |(mut lo, mut hi), (l, h)| {
+                lo.iter_mut().zip(l).for_each(|(a, b)| *a = a.min(b));
+                hi.iter_mut().zip(h).for_each(|(a, b)| *a = a.max(b));
+                (lo, hi)
+            });
+        let pq = Sq::from_ranges(&lo, &hi, d);
+        drop((lo, hi));
         let mut ivf = Ivf::from_cells(n, d, coarse, fine, pq, &cell, n)
             .expect("cells computed from the centroids are in range");
         // the codes, items in item order a block at a time, each put in its place
@@ -431,16 +547,22 @@ impl Ivf {
         let place = ivf.places();
         const BLOCK: usize = 1 << 18;
         let mut block = vec![0u8; BLOCK * m];
+        let mut second = vec![0u8; BLOCK * m];
         for start in (0..n).step_by(BLOCK) {
             let len = (n - start).min(BLOCK);
             let pq = &ivf.pq;
             block[..len * m]
                 .par_chunks_mut(m)
+                .zip(second[..len * m].par_chunks_mut(m))
                 .enumerate()
-                .for_each(|(k, out)| pq.encode(&residual((start + k) as u32), out));
+                .for_each(|(k, (a, b))| {
+                    let i = start + k;
+                    pq.encode(cell[i] as usize, &residual(i as u32), a, b)
+                });
             for k in 0..len {
                 let j = place[start + k] as usize;
                 ivf.codes[j * m..(j + 1) * m].copy_from_slice(&block[k * m..(k + 1) * m]);
+                ivf.refine[j * m..(j + 1) * m].copy_from_slice(&second[k * m..(k + 1) * m]);
             }
         }
         ivf
@@ -524,7 +646,6 @@ impl Ivf {
         let m = pq.bytes();
         if d == 0
             || cell.len() != n
-            || !pq.fits(d)
             || !coarse.len().is_multiple_of(d)
             || coarse.len() / d != fine.len()
             || fine.iter().any(|f| !f.len().is_multiple_of(d))
@@ -532,6 +653,9 @@ impl Ivf {
             return None;
         }
         let cells: usize = fine.iter().map(|f| f.len() / d).sum();
+        if !pq.fits(d, cells) {
+            return None;
+        }
         let mut counts = vec![0u32; cells + 1];
         for &c in cell {
             *counts.get_mut(c as usize + 1)? += 1;
@@ -547,11 +671,13 @@ impl Ivf {
             *slot += 1;
         }
         let mut ranges = Vec::with_capacity(fine.len());
+        let mut bases = Vec::with_capacity(fine.len());
         let mut g = 0;
         for f in &fine {
             let r: Vec<(u32, u32)> = (0..f.len() / d)
                 .map(|k| (counts[g + k], counts[g + k + 1]))
                 .collect();
+            bases.push(g);
             g += r.len();
             ranges.push(r);
         }
@@ -559,10 +685,12 @@ impl Ivf {
             d,
             coarse,
             fine,
+            bases,
             ranges,
             items,
             pq,
             codes: vec![0u8; n.checked_mul(m)?],
+            refine: vec![0u8; n.checked_mul(m)?],
             trained,
         })
     }
@@ -628,6 +756,7 @@ impl Ivf {
         let config = crate::manifest::bincode_config();
         let enc = |e: bincode::error::EncodeError| std::io::Error::other(e.to_string());
         let head = Head {
+            tag: CACHE_TAG,
             key,
             d: self.d as u32,
             trained: self.trained as u64,
@@ -642,12 +771,14 @@ impl Ivf {
             let mut starts = Vec::with_capacity(records.len() + 1);
             let mut cells = Vec::new();
             let mut codes = Vec::new();
+            let mut refine = Vec::new();
             for &(_, first, count) in &records {
                 starts.push(cells.len() as u32);
                 for i in first..first + count {
                     cells.push(cell[i]);
                     let j = place[i] as usize;
                     codes.extend_from_slice(&self.codes[j * m..(j + 1) * m]);
+                    refine.extend_from_slice(&self.refine[j * m..(j + 1) * m]);
                 }
             }
             starts.push(cells.len() as u32);
@@ -657,6 +788,7 @@ impl Ivf {
                 starts,
                 cells,
                 codes,
+                refine,
             };
             bincode::serde::encode_into_std_write(&seg, w, config).map_err(enc)?;
         }
@@ -709,7 +841,8 @@ impl Ivf {
         let (head, mut at): (HeadOwned, usize) = crate::manifest::decode_bounded(payload).ok()?;
         let n = points.len();
         let trained = usize::try_from(head.trained).ok()?;
-        if head.d as usize != d
+        if head.tag != CACHE_TAG
+            || head.d as usize != d
             || n > trained.saturating_mul(GROWTH)
             || n.saturating_mul(GROWTH) < trained
         {
@@ -744,6 +877,7 @@ impl Ivf {
                     && b.checked_sub(a) == Some(items)
                     && b <= seg.cells.len()
                     && b.checked_mul(m).is_some_and(|e| e <= seg.codes.len())
+                    && seg.refine.len() == seg.codes.len()
                 {
                     out.push((first, a, items));
                 }
@@ -799,23 +933,27 @@ impl Ivf {
                     let j = place[first + k] as usize;
                     ivf.codes[j * m..(j + 1) * m]
                         .copy_from_slice(&seg.codes[(a + k) * m..(a + k + 1) * m]);
+                    ivf.refine[j * m..(j + 1) * m]
+                        .copy_from_slice(&seg.refine[(a + k) * m..(a + k + 1) * m]);
                 }
             }
         }
-        let coded: Vec<(usize, Vec<u8>)> = fresh
+        let coded: Vec<(usize, Vec<u8>, Vec<u8>)> = fresh
             .par_iter()
             .map(|&i| {
                 let p = points.point(i);
                 let j = place[i as usize] as usize;
                 let c = ivf.fine_centroid(cell[i as usize] as usize)?;
                 let r: Vec<f32> = p.iter().zip(c).map(|(v, c)| v - c).collect();
-                let mut code = vec![0u8; m];
-                ivf.pq.encode(&r, &mut code);
-                Some((j, code))
+                let (mut first, mut second) = (vec![0u8; m], vec![0u8; m]);
+                ivf.pq
+                    .encode(cell[i as usize] as usize, &r, &mut first, &mut second);
+                Some((j, first, second))
             })
             .collect::<Option<_>>()?;
-        for (j, code) in coded {
-            ivf.codes[j * m..(j + 1) * m].copy_from_slice(&code);
+        for (j, first, second) in coded {
+            ivf.codes[j * m..(j + 1) * m].copy_from_slice(&first);
+            ivf.refine[j * m..(j + 1) * m].copy_from_slice(&second);
         }
         Some(FromCache {
             ivf,
@@ -850,42 +988,65 @@ impl Ivf {
             a.0.total_cmp(&b.0).then((a.1, a.2).cmp(&(b.1, b.2)))
         });
         let m = self.pq.bytes();
-        let by = |a: &(u32, f32), b: &(u32, f32)| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0));
-        let mut found: Vec<(u32, f32)> = Vec::new();
-        let mut residual = vec![0f32; d];
-        let mut shifted = vec![0f32; d];
-        for &(_, ci, fi) in &fine {
+        let keep = k.saturating_mul(RERANK);
+        // (place in cell order, distance, the scanned cell's position in `fine`)
+        let by = |a: &(u32, f32, u32), b: &(u32, f32, u32)| {
+            a.1.total_cmp(&b.1)
+                .then(self.items[a.0 as usize].cmp(&self.items[b.0 as usize]))
+        };
+        let mut found: Vec<(u32, f32, u32)> = Vec::new();
+        let mut shifted = Vec::with_capacity(fine.len());
+        for (probe, &(_, ci, fi)) in fine.iter().enumerate() {
             let c = &self.fine[ci][fi * d..(fi + 1) * d];
-            for ((r, q), c) in residual.iter_mut().zip(q).zip(c) {
-                *r = q - c;
-            }
-            self.pq.shift(&residual, &mut shifted);
+            let residual: Vec<f32> = q.iter().zip(c).map(|(q, c)| q - c).collect();
+            let prepared = self.pq.shift(self.bases[ci] + fi, &residual);
             let (start, end) = self.ranges[ci][fi];
             for j in start as usize..end as usize {
                 let code = &self.codes[j * m..(j + 1) * m];
-                found.push((self.items[j], self.pq.distance(&shifted, code)));
+                let dist = Sq::coarse_distance(&prepared, code);
+                found.push((j as u32, dist, probe as u32));
             }
+            shifted.push(prepared);
             // bounded memory whatever the cells' sizes
-            if found.len() >= 4 * k.max(CELL_SIZE) {
-                keep_smallest(&mut found, k, by);
+            if found.len() >= 4 * keep.max(CELL_SIZE) {
+                keep_smallest(&mut found, keep, by);
             }
+        }
+        // the nearest by first bytes, ranked again by whole codes
+        keep_smallest(&mut found, keep, by);
+        for f in &mut found {
+            let j = f.0 as usize;
+            let (first, second) = (
+                &self.codes[j * m..(j + 1) * m],
+                &self.refine[j * m..(j + 1) * m],
+            );
+            f.1 = Sq::distance(&shifted[f.2 as usize], first, second);
         }
         keep_smallest(&mut found, k, by);
         found.sort_by(by);
         found
+            .into_iter()
+            .map(|(j, dist, _)| (self.items[j as usize], dist))
+            .collect()
     }
 
-    /// The largest distance between a residual within the quantiser's ranges and the one its
-    /// code stands for (half a level per value): the square root of a code's squared distance
-    /// to a query differs from the true one by at most this, for descriptors whose residuals
-    /// lie within the ranges fitted (values beyond take the end levels and may differ more).
+    /// The largest distance between a residual within its cell's ranges and the one its code
+    /// stands for (half a level per value, in the cell of the coarsest levels): the square root
+    /// of a code's squared distance to a query differs from the true one by at most this, for
+    /// parts within the ranges of their cells (every part the cells were built with; a part
+    /// put in a cell later may lie beyond, and its end levels may differ more).
     pub(crate) fn code_error(&self) -> f32 {
+        let d = self.pq.bytes().max(1);
         self.pq
             .step
-            .iter()
-            .map(|s| (0.5 * s) * (0.5 * s))
-            .sum::<f32>()
-            .sqrt()
+            .chunks(d)
+            .map(|cell| {
+                cell.iter()
+                    .map(|s| (0.5 * s) * (0.5 * s))
+                    .sum::<f32>()
+                    .sqrt()
+            })
+            .fold(0.0, f32::max)
     }
 
     /// Bytes held (centroids, items, codes and the quantiser).
@@ -895,6 +1056,7 @@ impl Ivf {
             + self.items.len()
             + 2 * self.pq.min.len())
             + self.codes.len()
+            + self.refine.len()
             + 8 * self.ranges.iter().map(Vec::len).sum::<usize>()
     }
 }
@@ -1033,6 +1195,7 @@ mod tests {
             .0
         };
         let stored = Stored {
+            tag: CACHE_TAG,
             key,
             d: d as u32,
             trained: 5_000,
@@ -1045,9 +1208,24 @@ mod tests {
                 starts: (0..=250).map(|i| i * 10).collect(),
                 cells: vec![u32::MAX; 2_500],
                 codes: vec![0; 2_500 * ivf.pq.bytes()],
+                refine: vec![0; 2_500 * ivf.pq.bytes()],
             }],
         };
         assert!(Ivf::from_cache(path, &seal(&stored), key, &flat, d, &origins).is_none());
+        // the cells in range: read; under another layout's tag: rebuilt
+        let in_range = Stored {
+            segments: vec![SegmentCells {
+                cells: vec![0; 2_500],
+                ..stored.segments[0].clone()
+            }],
+            ..stored.clone()
+        };
+        assert!(Ivf::from_cache(path, &seal(&in_range), key, &flat, d, &origins).is_some());
+        let other_layout = Stored {
+            tag: CACHE_TAG ^ 1,
+            ..in_range
+        };
+        assert!(Ivf::from_cache(path, &seal(&other_layout), key, &flat, d, &origins).is_none());
         assert!(Ivf::from_cache(path, &bytes, key, &flat, d, &self::origins(501, 10)).is_none());
         // items the cache does not hold, but no fine cell to put them in
         let empty = Stored {
@@ -1106,9 +1284,8 @@ mod tests {
         // every new item is found by its own descriptor
         for i in (3_000..5_000u32).step_by(97) {
             let q = now.point(i);
-            let (found, dist) = c.ivf.search(q, 1)[0];
-            assert_eq!(found, i);
-            assert!(dist.sqrt() <= c.ivf.code_error() * 1.001 + 1e-5);
+            // (its residual may lie beyond its cell's ranges: no bound on the distance)
+            assert_eq!(c.ivf.search(q, 1)[0].0, i);
         }
         // rewritten for the new snapshot, it reads back exactly
         let again = c.ivf.to_cache(2, &now_origins);

@@ -27,8 +27,9 @@
 //!   degrades towards a linear scan for high-dimensional data — which 64-value descriptors
 //!   are: at 84,000 components the tree took 280 ms for a query's 84 searches;
 //! - from there, approximate: an inverted file with a two-level k-means quantiser and
-//!   residuals coded in one byte per value (`ivf`): about 12 cells of 512 codes scanned per
-//!   search, the nearest by code measured exactly (BENCHMARKS.md, "Candidate search").
+//!   residuals coded in two bytes per value (`ivf`): about 12 cells of 512 codes scanned per
+//!   search by their first bytes, the nearest ranked again by their whole codes, no descriptor
+//!   read (BENCHMARKS.md, "Candidate search").
 //!   [`SearchMode`] chooses otherwise; an exact search of more than [`EXACT_TREE_MAX`]
 //!   components scans every descriptor in place instead of copying them into a tree.
 //!
@@ -38,7 +39,8 @@
 //! the same snapshot read it, and readers of a later snapshot (after an add or a remove) update
 //! it — new records' parts go to their nearest cells, removed ones are left out — until the
 //! collection has doubled or halved ([`SearchSource`]; `index/README.md`, "Search cache").
-//! Distances are squared Euclidean, recomputed from the stored descriptors.
+//! Distances are squared Euclidean: recomputed from the stored descriptors for the exact
+//! search, as the codes give them for the approximate one ([`ComponentMatch::distance_sq`]).
 
 use std::num::NonZero;
 use std::path::{Path, PathBuf};
@@ -928,57 +930,102 @@ impl<const D: usize> IndexReader<D> {
     }
 
     /// The exact `k` nearest components of each of `queries`, by one parallel pass over every
-    /// descriptor (read in place), each compared with every query: what the exact search does
-    /// above [`EXACT_TREE_MAX`] components. Ranked by the vectorised distance, the `2k`
-    /// nearest are measured again in kiddo's summation order and the `k` best kept, ordered as
-    /// [`IndexReader::nearest_components`] orders them.
+    /// descriptor (read in place): what the exact search does above [`EXACT_TREE_MAX`]
+    /// components. The descriptors are taken a block at a time, and the block's squared
+    /// distances to every query as `‖x‖² + ‖q‖² − 2 x·q`, the products as one matrix product
+    /// (faer); a block's distances that cannot enter a query's kept ones are skipped eight at a
+    /// time. The `2k` nearest so ranked are measured again in kiddo's summation order (the
+    /// expansion loses digits to cancellation) and the `k` best kept, ordered as
+    /// [`IndexReader::nearest_components`] orders them. Batching many queries into one call
+    /// reads the descriptors once for all of them.
     fn scan(&self, queries: &[[f32; D]], k: usize) -> Vec<Vec<ComponentMatch>> {
-        if k == 0 {
+        if k == 0 || queries.is_empty() {
             return vec![Vec::new(); queries.len()];
         }
         let keep = k.saturating_mul(2);
-        type Found = Vec<Vec<(f32, u32)>>;
-        let prune = |v: &mut Vec<(f32, u32)>| {
-            if v.len() > keep {
+        let nq = queries.len();
+        let q_flat: Vec<f32> = queries.iter().flatten().copied().collect();
+        let q_norm: Vec<f32> = queries.iter().map(|q| norm_sq(q)).collect();
+        // descriptors per block: the block's distance matrix stays within 4M values
+        let block = ((1usize << 22) / nq).clamp(64, 4096);
+        /// Per query: the kept (distance, item) pairs and the distance they must beat.
+        struct Kept {
+            found: Vec<Vec<(f32, u32)>>,
+            bound: Vec<f32>,
+        }
+        let prune = |v: &mut Vec<(f32, u32)>| -> f32 {
+            if v.len() >= keep {
                 v.select_nth_unstable_by(keep - 1, |a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
                 v.truncate(keep);
+                v.iter().map(|x| x.0).fold(f32::NEG_INFINITY, f32::max)
+            } else {
+                f32::INFINITY
             }
         };
-        let slots: Vec<usize> = (0..self.slots.len()).collect();
-        let found: Found = slots
-            .par_chunks(64)
-            .fold(
-                || vec![Vec::new(); queries.len()],
-                |mut acc: Found, chunk| {
-                    for &slot in chunk {
-                        let first = self.starts[slot] as usize;
-                        let m = (self.starts[slot + 1] - self.starts[slot]) as usize;
-                        for c in 0..m {
-                            let Some(d) = self.descriptor_slice(first + c) else {
-                                continue;
-                            };
-                            for (q, v) in queries.iter().zip(acc.iter_mut()) {
-                                v.push((crate::ivf::distance_sq(q, d), (first + c) as u32));
-                                if v.len() >= 2 * keep.max(64) {
-                                    prune(v);
-                                }
+        let new_kept = || Kept {
+            found: vec![Vec::new(); nq],
+            bound: vec![f32::INFINITY; nq],
+        };
+        let n = self.component_count();
+        let kept = (0..n.div_ceil(block))
+            .into_par_iter()
+            .fold(new_kept, |mut acc, chunk| {
+                let items = chunk * block..((chunk + 1) * block).min(n);
+                let mut x = Vec::with_capacity(items.len() * D);
+                let mut ids = Vec::with_capacity(items.len());
+                for i in items {
+                    if let Some(d) = self.descriptor_slice(i) {
+                        x.extend_from_slice(d);
+                        ids.push(i as u32);
+                    }
+                }
+                let b = ids.len();
+                if b == 0 {
+                    return acc;
+                }
+                let x_norm: Vec<f32> = x.chunks_exact(D).map(norm_sq).collect();
+                let mut g = faer::Mat::<f32>::zeros(b, nq);
+                faer::linalg::matmul::matmul(
+                    g.as_mut(),
+                    faer::Accum::Replace,
+                    faer::MatRef::from_row_major_slice(&x, b, D),
+                    faer::MatRef::from_row_major_slice(&q_flat, nq, D).transpose(),
+                    -2.0f32,
+                    faer::Par::Seq,
+                );
+                let mut dist = vec![0f32; b];
+                for (q, &qn) in q_norm.iter().enumerate() {
+                    let col = g.col(q);
+                    for (r, (out, xn)) in dist.iter_mut().zip(&x_norm).enumerate() {
+                        *out = xn + col[r];
+                    }
+                    // compared with the bound less the query's norm, eight at a time
+                    let beat = acc.bound[q] - qn;
+                    for (c, eight) in dist.chunks(8).enumerate() {
+                        if eight.iter().copied().fold(f32::INFINITY, f32::min) >= beat {
+                            continue;
+                        }
+                        for (r, &v) in eight.iter().enumerate() {
+                            if v < beat {
+                                let at = c * 8 + r;
+                                acc.found[q].push((v + qn, ids[at]));
                             }
                         }
                     }
-                    acc
-                },
-            )
-            .reduce(
-                || vec![Vec::new(); queries.len()],
-                |mut a, b| {
-                    for (x, y) in a.iter_mut().zip(b) {
-                        x.extend(y);
-                        prune(x);
+                    if acc.found[q].len() >= 2 * keep.max(64) {
+                        acc.bound[q] = prune(&mut acc.found[q]);
                     }
-                    a
-                },
-            );
-        found
+                }
+                acc
+            })
+            .reduce(new_kept, |mut a, b| {
+                for (q, v) in b.found.into_iter().enumerate() {
+                    a.found[q].extend(v);
+                    a.bound[q] = prune(&mut a.found[q]);
+                }
+                a
+            });
+        kept.found
             .into_iter()
             .zip(queries)
             .map(|(mut v, q)| {
@@ -998,6 +1045,19 @@ impl<const D: usize> IndexReader<D> {
             })
             .collect()
     }
+}
+
+/// Squared norm of `v` (eight partial sums, so that the loop vectorises).
+fn norm_sq(v: &[f32]) -> f32 {
+    let mut acc = [0f32; 8];
+    let chunks = v.chunks_exact(8);
+    let tail: f32 = chunks.remainder().iter().map(|x| x * x).sum();
+    for c in chunks {
+        for l in 0..8 {
+            acc[l] += c[l] * c[l];
+        }
+    }
+    acc.iter().sum::<f32>() + tail
 }
 
 fn sort_matches(v: &mut [ComponentMatch]) {

@@ -62,7 +62,7 @@ pub mod verify;
 
 pub use query::{
     CANDIDATES_PER_COMPONENT, MATCHED_CANDIDATES, Ranked, idf_weights, rank, rank_hypotheses,
-    record_areas, record_centres, record_sample,
+    rank_neighbours, record_areas, record_centres, record_sample,
 };
 
 use keycomp_describe::Descriptor;

@@ -87,9 +87,23 @@ pub fn rank(
 ) -> Result<Vec<Ranked>, IndexError> {
     let neighbours =
         reader.nearest_components_batch(query.descriptors, CANDIDATES_PER_COMPONENT)?;
-    let votes = votes(&neighbours, params);
+    rank_neighbours(reader, query, &neighbours, k, params)
+}
+
+/// [`rank`] given the nearest index components of each query part (`neighbours[i]`: part i's
+/// [`CANDIDATES_PER_COMPONENT`] nearest, as `IndexReader::nearest_components_batch` returns
+/// them), so that the searches of many queries can be made in one batch: an exact search of a
+/// large index then reads its descriptors once for all of them.
+pub fn rank_neighbours(
+    reader: &IndexReader<DIM>,
+    query: ShapeView,
+    neighbours: &[Vec<keycomp_index::ComponentMatch>],
+    k: usize,
+    params: &MatchParams,
+) -> Result<Vec<Ranked>, IndexError> {
+    let votes = votes(neighbours, params);
     let weights = if params.idf {
-        idf_weights(&neighbours, reader.len(), params)
+        idf_weights(neighbours, reader.len(), params)
     } else {
         Vec::new()
     };
