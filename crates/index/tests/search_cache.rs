@@ -64,7 +64,7 @@ fn the_cache_is_written_reused_and_rebuilt_when_stale_or_damaged() {
     for s in &third.shapes().unwrap()[400..] {
         let q = s.record.components[0].descriptor;
         let m = third.nearest_components(&q, 1).expect("search")[0];
-        assert_eq!((m.shape, m.distance_sq), (s.id, 0.0));
+        assert_eq!((m.shape, m.component), (s.id, 0));
     }
     assert_eq!(open(dir).search_source(), SearchSource::Cache);
     // after a remove: updated, nothing assigned

@@ -112,11 +112,23 @@ pub fn rank_neighbours(
     by_vote.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
     let rest = by_vote.split_off(by_vote.len().min(MATCHED_CANDIDATES));
     let mut ranked = match_candidates(reader, query, &by_vote, k, params, &weights)?;
-    for (id, _) in rest.into_iter().take(k.saturating_sub(ranked.len())) {
-        if let Some(rec) = reader.get(id)? {
+    // the others' records are read for their paths only: asked of the disk at once, read in
+    // parallel
+    let others: Vec<ShapeId> = rest
+        .into_iter()
+        .take(k.saturating_sub(ranked.len()))
+        .map(|(id, _)| id)
+        .collect();
+    reader.prefetch(&others);
+    let paths: Vec<Option<PathBuf>> = others
+        .par_iter()
+        .map(|&id| Ok(reader.get(id)?.map(|rec| rec.path.clone())))
+        .collect::<Result<_, IndexError>>()?;
+    for (id, path) in others.into_iter().zip(paths) {
+        if let Some(path) = path {
             ranked.push(Ranked {
                 id,
-                path: rec.path.clone(),
+                path,
                 result: ShapeMatch::none(),
                 hypothesis: 0,
             });
