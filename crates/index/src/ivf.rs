@@ -325,7 +325,7 @@ pub(crate) struct Sq {
 
 /// A query's residual from one fine centroid, prepared for [`Sq::coarse_distance`] and
 /// [`Sq::distance`] of that cell's codes.
-struct Shifted {
+struct Shifted<'a> {
     /// The residual minus the first level.
     fine: Vec<f32>,
     /// The residual minus the middle of the first run of levels.
@@ -333,7 +333,7 @@ struct Shifted {
     /// The step between runs of levels ([`RUN`] steps).
     run: Vec<f32>,
     /// The step between levels.
-    step: Vec<f32>,
+    step: &'a [f32],
 }
 
 impl Sq {
@@ -400,14 +400,14 @@ impl Sq {
 
     /// `r`, a query's residual from the centroid of cell `g`, prepared for the distances to
     /// that cell's codes.
-    fn shift(&self, g: usize, r: &[f32]) -> Shifted {
+    fn shift(&self, g: usize, r: &[f32]) -> Shifted<'_> {
         let (min, step) = self.cell(g);
         let half_run = 0.5 * (RUN - 1) as f32;
         let mut out = Shifted {
             fine: Vec::with_capacity(r.len()),
             coarse: Vec::with_capacity(r.len()),
             run: Vec::with_capacity(r.len()),
-            step: step.to_vec(),
+            step,
         };
         for ((v, m), s) in r.iter().zip(min).zip(step) {
             out.fine.push(v - m);
@@ -526,9 +526,12 @@ impl Ivf {
                 let items = p * PIECE..((p + 1) * PIECE).min(n);
                 for (i, &g) in items.clone().zip(&cell[items]) {
                     let g = g as usize;
-                    for (v, r) in residual(i as u32).into_iter().enumerate() {
-                        lo[g * d + v] = lo[g * d + v].min(r);
-                        hi[g * d + v] = hi[g * d + v].max(r);
+                    let c = &flat_fine[g * d..(g + 1) * d];
+                    let (lo, hi) = (&mut lo[g * d..(g + 1) * d], &mut hi[g * d..(g + 1) * d]);
+                    for (((l, h), v), c) in lo.iter_mut().zip(hi).zip(point(i as u32)).zip(c) {
+                        let r = v - c;
+                        *l = l.min(r);
+                        *h = h.max(r);
                     }
                 }
                 (lo, hi)
@@ -580,15 +583,10 @@ impl Ivf {
     /// The global fine cell `g`'s centroid, if there is one.
     fn fine_centroid(&self, g: usize) -> Option<&[f32]> {
         let d = self.d;
-        let mut g = g;
-        for f in &self.fine {
-            let cells = f.len() / d;
-            if g < cells {
-                return f.get(g * d..(g + 1) * d);
-            }
-            g -= cells;
-        }
-        None
+        // the last coarse cell whose first fine cell is not beyond g (empty ones share it)
+        let ci = self.bases.partition_point(|&b| b <= g).checked_sub(1)?;
+        let k = g - self.bases[ci];
+        self.fine[ci].get(k * d..(k + 1) * d)
     }
 
     /// The global fine cell nearest `p`: in the nearest coarse cell that has fine cells, the
@@ -611,8 +609,7 @@ impl Ivf {
             }
         }
         let (_, cell) = best?;
-        let base: usize = self.fine[..cell].iter().map(|f| f.len() / d).sum();
-        u32::try_from(base + nearest(&self.fine[cell], d, p)).ok()
+        u32::try_from(self.bases[cell] + nearest(&self.fine[cell], d, p)).ok()
     }
 
     /// Each item's global fine cell.
@@ -992,7 +989,7 @@ impl Ivf {
         // (place in cell order, distance, the scanned cell's position in `fine`)
         let by = |a: &(u32, f32, u32), b: &(u32, f32, u32)| {
             a.1.total_cmp(&b.1)
-                .then(self.items[a.0 as usize].cmp(&self.items[b.0 as usize]))
+                .then_with(|| self.items[a.0 as usize].cmp(&self.items[b.0 as usize]))
         };
         let mut found: Vec<(u32, f32, u32)> = Vec::new();
         let mut shifted = Vec::with_capacity(fine.len());

@@ -945,7 +945,7 @@ impl<const D: usize> IndexReader<D> {
         let keep = k.saturating_mul(2);
         let nq = queries.len();
         let q_flat: Vec<f32> = queries.iter().flatten().copied().collect();
-        let q_norm: Vec<f32> = queries.iter().map(|q| norm_sq(q)).collect();
+        let q_norm: Vec<f32> = queries.iter().map(|q| norm_sq::<D>(q)).collect();
         // descriptors per block: the block's distance matrix stays within 4M values
         let block = ((1usize << 22) / nq).clamp(64, 4096);
         /// Per query: the kept (distance, item) pairs and the distance they must beat.
@@ -983,7 +983,7 @@ impl<const D: usize> IndexReader<D> {
                 if b == 0 {
                     return acc;
                 }
-                let x_norm: Vec<f32> = x.chunks_exact(D).map(norm_sq).collect();
+                let x_norm: Vec<f32> = x.chunks_exact(D).map(norm_sq::<D>).collect();
                 let mut g = faer::Mat::<f32>::zeros(b, nq);
                 faer::linalg::matmul::matmul(
                     g.as_mut(),
@@ -1021,7 +1021,7 @@ impl<const D: usize> IndexReader<D> {
             .reduce(new_kept, |mut a, b| {
                 for (q, v) in b.found.into_iter().enumerate() {
                     a.found[q].extend(v);
-                    a.bound[q] = prune(&mut a.found[q]);
+                    prune(&mut a.found[q]);
                 }
                 a
             });
@@ -1047,17 +1047,9 @@ impl<const D: usize> IndexReader<D> {
     }
 }
 
-/// Squared norm of `v` (eight partial sums, so that the loop vectorises).
-fn norm_sq(v: &[f32]) -> f32 {
-    let mut acc = [0f32; 8];
-    let chunks = v.chunks_exact(8);
-    let tail: f32 = chunks.remainder().iter().map(|x| x * x).sum();
-    for c in chunks {
-        for l in 0..8 {
-            acc[l] += c[l] * c[l];
-        }
-    }
-    acc.iter().sum::<f32>() + tail
+/// Squared norm of `v`: its vectorised squared distance to the origin.
+fn norm_sq<const D: usize>(v: &[f32]) -> f32 {
+    crate::ivf::distance_sq(v, &[0.0; D])
 }
 
 fn sort_matches(v: &mut [ComponentMatch]) {
