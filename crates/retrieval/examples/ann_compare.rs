@@ -15,29 +15,14 @@
 
 use std::time::Instant;
 
+mod common;
+use common::{grown_copy, median, resident_mb};
 use hnsw_rs::prelude::{DistL2, Hnsw};
 use keycomp_describe::DIM;
 use keycomp_index::{IndexReader, IndexWriter, SearchMode, ShapeId, ShapeRecord};
 use keycomp_retrieval::CANDIDATES_PER_COMPONENT;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-
-/// The process's resident memory in MB (Linux; 0 elsewhere).
-fn resident_mb() -> f64 {
-    std::fs::read_to_string("/proc/self/status")
-        .ok()
-        .and_then(|s| {
-            let line = s.lines().find(|l| l.starts_with("VmRSS:"))?;
-            let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
-            Some(kb / 1e3)
-        })
-        .unwrap_or(0.0)
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
 
 /// Share of `want`'s (shape, part) pairs found in `got`.
 fn recall(got: &[(ShapeId, usize)], want: &[(ShapeId, usize)]) -> f64 {
@@ -78,18 +63,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         for start in (0..n).step_by(5000) {
             let batch: Vec<ShapeRecord<DIM>> = (start..(start + 5000).min(n))
                 .map(|i| {
-                    let mut r = src[i % src.len()].clone();
-                    let name = format!("copy-{i:07}.off");
-                    r.path = std::path::PathBuf::from("copies").join(&name);
-                    r.canonical_path = std::path::PathBuf::from("/copies").join(&name);
-                    r.content_hash =
-                        keycomp_index::ContentHash::of_bytes(&(i as u64).to_le_bytes());
-                    for c in &mut r.components {
-                        for x in &mut c.descriptor {
-                            *x += jitter.random_range(-0.01..0.01);
-                        }
-                        points.push(c.descriptor.to_vec());
-                    }
+                    let r = grown_copy(&src, i as u64, &mut jitter);
+                    points.extend(r.components.iter().map(|c| c.descriptor.to_vec()));
                     counts.push(r.components.len());
                     r
                 })
@@ -112,21 +87,21 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let k = CANDIDATES_PER_COMPONENT;
     eprintln!("{n} shapes, {} parts: building", points.len());
 
-    let before = resident_mb();
+    let before = resident_mb().unwrap_or(0.0);
     let ivf_build = reader.prepare_search().as_secs_f64();
     let ivf_memory = reader.search_bytes() as f64 / 1e6;
     exact.prepare_search();
 
     // HNSW: 16 links per node (the paper's M), ef_construction 200, as its authors advise for
     // high recall; parallel insertion on every core
-    let before_hnsw = resident_mb();
+    let before_hnsw = resident_mb().unwrap_or(0.0);
     let t = Instant::now();
     let layers = 16.min((points.len() as f64).ln().max(1.0) as usize);
     let hnsw: Hnsw<f32, DistL2> = Hnsw::new(16, points.len(), layers, 200, DistL2 {});
     let with_ids: Vec<(&Vec<f32>, usize)> = points.iter().zip(0..).collect();
     hnsw.parallel_insert(&with_ids);
     let hnsw_build = t.elapsed().as_secs_f64();
-    let hnsw_memory = resident_mb() - before_hnsw;
+    let hnsw_memory = resident_mb().unwrap_or(0.0) - before_hnsw;
     eprintln!("inverted file built in {ivf_build:.1} s, HNSW in {hnsw_build:.1} s");
 
     // query shapes: indexed shapes' parts moved by up to ±0.01

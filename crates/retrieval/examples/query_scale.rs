@@ -31,6 +31,8 @@
 
 use std::time::Instant;
 
+mod common;
+use common::{grown_copy, median, resident_mb};
 use keycomp_describe::DIM;
 use keycomp_index::{IndexReader, IndexWriter, SearchMode, synthetic};
 use keycomp_retrieval::{
@@ -48,23 +50,6 @@ fn view<'a>(descriptors: &'a [[f32; DIM]], layout: &'a [f32]) -> ShapeView<'a> {
         centres: &[],
         sample: &[],
     }
-}
-
-/// The process's resident memory in MB (Linux; "n/a" elsewhere).
-fn resident_mb() -> String {
-    std::fs::read_to_string("/proc/self/status")
-        .ok()
-        .and_then(|s| {
-            let line = s.lines().find(|l| l.starts_with("VmRSS:"))?;
-            let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
-            Some(format!("{:.0}", kb / 1e3))
-        })
-        .unwrap_or_else(|| "n/a".into())
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -113,21 +98,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut records = |range: std::ops::Range<u64>| -> Vec<keycomp_index::ShapeRecord<DIM>> {
         match &source {
             None => synthetic::records(7, range),
-            Some(src) if !src.is_empty() => range
-                .map(|i| {
-                    let mut r = src[i as usize % src.len()].clone();
-                    let name = format!("copy-{i:07}.off");
-                    r.path = std::path::PathBuf::from("copies").join(&name);
-                    r.canonical_path = std::path::PathBuf::from("/copies").join(&name);
-                    r.content_hash = keycomp_index::ContentHash::of_bytes(&i.to_le_bytes());
-                    for c in &mut r.components {
-                        for x in &mut c.descriptor {
-                            *x += jitter.random_range(-0.01..0.01);
-                        }
-                    }
-                    r
-                })
-                .collect(),
+            Some(src) if !src.is_empty() => {
+                range.map(|i| grown_copy(src, i, &mut jitter)).collect()
+            }
             Some(_) => Vec::new(),
         }
     };
@@ -281,7 +254,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             ));
         }
         let components = reader.component_count();
-        let resident = resident_mb();
+        let resident = resident_mb().map_or_else(|| "n/a".into(), |m| format!("{m:.0}"));
         let bytes = reader.stats().bytes as f64 / 1e9;
         // the exact rankings of the kept queries, their searches in one batch (above
         // EXACT_TREE_MAX parts, one scan of the descriptors for all of them), with the

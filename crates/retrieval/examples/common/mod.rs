@@ -1,0 +1,37 @@
+//! What this crate's scale examples (`query_scale`, `ann_compare`) share: the grown copies of
+//! real records, resident memory, medians.
+
+use keycomp_describe::DIM;
+use keycomp_index::ShapeRecord;
+use rand::Rng;
+
+/// Copy `i` of the records `src` (record `i mod len`), with its own path and content hash and
+/// every descriptor value moved by up to ±0.01 (draws from `jitter`, part after part).
+/// `src` must not be empty.
+pub fn grown_copy(src: &[ShapeRecord<DIM>], i: u64, jitter: &mut impl Rng) -> ShapeRecord<DIM> {
+    let mut r = src[i as usize % src.len()].clone();
+    let name = format!("copy-{i:07}.off");
+    r.path = std::path::PathBuf::from("copies").join(&name);
+    r.canonical_path = std::path::PathBuf::from("/copies").join(&name);
+    r.content_hash = keycomp_index::ContentHash::of_bytes(&i.to_le_bytes());
+    for c in &mut r.components {
+        for x in &mut c.descriptor {
+            *x += jitter.random_range(-0.01..0.01);
+        }
+    }
+    r
+}
+
+/// The process's resident memory in MB (Linux; `None` elsewhere).
+pub fn resident_mb() -> Option<f64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = s.lines().find(|l| l.starts_with("VmRSS:"))?;
+    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb / 1e3)
+}
+
+/// The median (the upper one of an even count) of a non-empty list.
+pub fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
