@@ -41,9 +41,9 @@ use rayon::prelude::*;
 /// Descriptors per fine cell aimed at.
 pub const CELL_SIZE: usize = 512;
 /// Coarse cells whose fine cells are candidates for scanning.
-pub const COARSE_PROBES: usize = 4;
+pub const COARSE_PROBES: usize = 6;
 /// Fine cells scanned per query.
-pub const FINE_PROBES: usize = 12;
+pub const FINE_PROBES: usize = 160;
 /// Lloyd iterations of each k-means.
 const ITERATIONS: usize = 8;
 /// Sample points per centroid that k-means is fitted on.
@@ -56,6 +56,30 @@ const RUN: usize = 256;
 /// Candidates ranked by the first bytes of their codes that are ranked again by whole codes,
 /// as a multiple of the neighbours asked for.
 pub const RERANK: usize = 2;
+
+/// How much of the inverted file a search reads: more is slower, and misses fewer true
+/// neighbours (the trade-off of `nprobe` in an IVF index). The default is
+/// [`FINE_PROBES`] and [`RERANK`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SearchEffort {
+    /// Coarse cells whose fine cells are candidates for scanning (at least 1).
+    pub coarse_probes: usize,
+    /// Fine cells scanned per query (at least 1).
+    pub fine_probes: usize,
+    /// Candidates by first bytes that are ranked again by whole codes, as a multiple of the
+    /// neighbours asked for (at least 1).
+    pub rerank: usize,
+}
+
+impl Default for SearchEffort {
+    fn default() -> Self {
+        SearchEffort {
+            coarse_probes: COARSE_PROBES,
+            fine_probes: FINE_PROBES,
+            rerank: RERANK,
+        }
+    }
+}
 /// The first field of a search cache's payload: caches whose payload is laid out otherwise
 /// (an earlier layout of the same format version) are rebuilt instead of misread.
 const CACHE_TAG: u64 = u64::from_le_bytes(*b"KCIVF16\0");
@@ -271,6 +295,57 @@ pub(crate) struct FromCache {
 /// built again.
 pub(crate) const GROWTH: usize = 2;
 
+/// The `k` nearest of `found` (items with a squared distance and the largest error of its
+/// square root, as [`Ivf::search_bounded`] gives them), nearest first (ties by item): an item
+/// that fewer than `k` others may be nearer than is in, one that `k` others are surely nearer
+/// than is out, and the places left go to the others by their true squared distance
+/// (`exact(item)`; the code's when that is `None`), so that codes whose distances are too
+/// close to tell apart at the `k`-th place are told apart by the descriptors, read for those
+/// only.
+pub(crate) fn resolve(
+    found: &[(u32, f32, f32)],
+    k: usize,
+    exact: impl Fn(u32) -> Option<f32>,
+) -> Vec<(u32, f32)> {
+    let by = |a: &(u32, f32), b: &(u32, f32)| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0));
+    if found.len() <= k {
+        let mut all: Vec<(u32, f32)> = found.iter().map(|f| (f.0, f.1)).collect();
+        all.sort_by(by);
+        return all;
+    }
+    let bounds: Vec<(f32, f32)> = found
+        .iter()
+        .map(|&(_, d, e)| {
+            let r = d.max(0.0).sqrt();
+            let lo = (r - e).max(0.0);
+            (lo * lo, (r + e) * (r + e))
+        })
+        .collect();
+    let mut los: Vec<f32> = bounds.iter().map(|b| b.0).collect();
+    let mut his: Vec<f32> = bounds.iter().map(|b| b.1).collect();
+    los.sort_by(f32::total_cmp);
+    his.sort_by(f32::total_cmp);
+    let (mut sure, mut open) = (Vec::new(), Vec::new());
+    for (f, &(lo, hi)) in found.iter().zip(&bounds) {
+        // others that may be nearer (the item itself counted when its own bounds differ)
+        let may = los.partition_point(|&l| l < hi) - usize::from(lo < hi);
+        // others surely nearer
+        let surely = his.partition_point(|&h| h < lo);
+        if may < k {
+            sure.push((f.0, f.1));
+        } else if surely < k {
+            open.push((f.0, exact(f.0).unwrap_or(f.1)));
+        }
+    }
+    open.sort_by(by);
+    open.truncate(k.saturating_sub(sure.len()));
+    sure.extend(open);
+    sure.sort_by(by);
+    // items of equal distances at the k-th place, all sure: the first by item
+    sure.truncate(k);
+    sure
+}
+
 /// Keeps the `n` smallest elements of `v` by `cmp` (a total order), in no particular order.
 fn keep_smallest<T>(v: &mut Vec<T>, n: usize, cmp: impl FnMut(&T, &T) -> std::cmp::Ordering) {
     if n == 0 {
@@ -334,6 +409,9 @@ struct Shifted<'a> {
     run: Vec<f32>,
     /// The step between levels.
     step: &'a [f32],
+    /// The largest distance between a residual of the cell and the one its code stands for
+    /// (half a step per value).
+    error: f32,
 }
 
 impl Sq {
@@ -408,6 +486,7 @@ impl Sq {
             coarse: Vec::with_capacity(r.len()),
             run: Vec::with_capacity(r.len()),
             step,
+            error: step.iter().map(|s| 0.25 * s * s).sum::<f32>().sqrt(),
         };
         for ((v, m), s) in r.iter().zip(min).zip(step) {
             out.fine.push(v - m);
@@ -444,6 +523,25 @@ impl Sq {
             })
             .sum();
         acc.iter().sum::<f32>() + tail
+    }
+
+    /// Squared distance between `r`, a query's residual from the centroid of cell `g`, and the
+    /// box of the points the cell's codes can stand for (each value from the first level to
+    /// the last): no more than its distance to any code of the cell, by first bytes
+    /// ([`Sq::coarse_distance`]: the middles of runs lie in the box) or whole
+    /// ([`Sq::distance`]).
+    fn box_distance(&self, g: usize, r: &[f32]) -> f32 {
+        let (min, step) = self.cell(g);
+        let top = (LEVELS - 1) as f32;
+        r.iter()
+            .zip(min)
+            .zip(step)
+            .map(|((v, lo), s)| {
+                let hi = lo + s * top;
+                let out = (lo - v).max(v - hi).max(0.0);
+                out * out
+            })
+            .sum()
     }
 
     /// Squared distance between a residual and the one a whole code stands for.
@@ -964,7 +1062,23 @@ impl Ivf {
     /// for, added to its cell's centroid; [`Ivf::code_error`] bounds how far that is from the
     /// descriptor itself); ties by item id. No descriptor is read: on an index larger than
     /// memory, the search touches only the inverted file.
-    pub(crate) fn search(&self, q: &[f32], k: usize) -> Vec<(u32, f32)> {
+    #[cfg(test)]
+    pub(crate) fn search(&self, q: &[f32], k: usize, effort: SearchEffort) -> Vec<(u32, f32)> {
+        let mut found = self.search_bounded(q, k, effort);
+        found.truncate(k);
+        found.into_iter().map(|(i, d, _)| (i, d)).collect()
+    }
+
+    /// The search behind [`Ivf::search`]: the `rerank × k` candidates ranked by whole codes
+    /// (fewer if fewer were found), nearest first, each with its distance as its code gives it
+    /// and how far the square root of that may be from the true one (half a level per value
+    /// of its cell, and float rounding), for [`resolve`] to settle the `k`-th place.
+    pub(crate) fn search_bounded(
+        &self,
+        q: &[f32],
+        k: usize,
+        effort: SearchEffort,
+    ) -> Vec<(u32, f32, f32)> {
         let d = self.d;
         let mut coarse: Vec<(f32, usize)> = self
             .coarse
@@ -972,7 +1086,7 @@ impl Ivf {
             .enumerate()
             .map(|(i, c)| (distance_sq(c, q), i))
             .collect();
-        keep_smallest(&mut coarse, COARSE_PROBES, |a, b| {
+        keep_smallest(&mut coarse, effort.coarse_probes.max(1), |a, b| {
             a.0.total_cmp(&b.0).then(a.1.cmp(&b.1))
         });
         let mut fine: Vec<(f32, usize, usize)> = Vec::new();
@@ -981,32 +1095,48 @@ impl Ivf {
                 fine.push((distance_sq(c, q), ci, fi));
             }
         }
-        keep_smallest(&mut fine, FINE_PROBES, |a, b| {
+        let by_cell = |a: &(f32, usize, usize), b: &(f32, usize, usize)| {
             a.0.total_cmp(&b.0).then((a.1, a.2).cmp(&(b.1, b.2)))
-        });
+        };
+        keep_smallest(&mut fine, effort.fine_probes.max(1), by_cell);
+        fine.sort_by(by_cell);
         let m = self.pq.bytes();
-        let keep = k.saturating_mul(RERANK);
-        // (place in cell order, distance, the scanned cell's position in `fine`)
+        let keep = k.saturating_mul(effort.rerank.max(1));
+        // (place in cell order, distance, the scanned cell's position in `shifted`)
         let by = |a: &(u32, f32, u32), b: &(u32, f32, u32)| {
             a.1.total_cmp(&b.1)
                 .then_with(|| self.items[a.0 as usize].cmp(&self.items[b.0 as usize]))
         };
-        let mut found: Vec<(u32, f32, u32)> = Vec::new();
+        let mut found: Vec<(u32, f32, u32)> = Vec::with_capacity(keep + CELL_SIZE);
         let mut shifted = Vec::with_capacity(fine.len());
-        for (probe, &(_, ci, fi)) in fine.iter().enumerate() {
+        // the largest distance among the `keep` nearest found so far, once there are `keep`
+        let mut threshold = f32::INFINITY;
+        let mut residual = vec![0f32; d];
+        for &(_, ci, fi) in &fine {
             let c = &self.fine[ci][fi * d..(fi + 1) * d];
-            let residual: Vec<f32> = q.iter().zip(c).map(|(q, c)| q - c).collect();
-            let prepared = self.pq.shift(self.bases[ci] + fi, &residual);
+            for ((r, q), c) in residual.iter_mut().zip(q).zip(c) {
+                *r = q - c;
+            }
+            let g = self.bases[ci] + fi;
+            // every code of the cell stands for a point of its box: a cell whose box is
+            // farther than the `keep`-th nearest found holds none nearer
+            if self.pq.box_distance(g, &residual) > threshold {
+                continue;
+            }
+            let prepared = self.pq.shift(g, &residual);
+            let probe = shifted.len() as u32;
             let (start, end) = self.ranges[ci][fi];
             for j in start as usize..end as usize {
                 let code = &self.codes[j * m..(j + 1) * m];
                 let dist = Sq::coarse_distance(&prepared, code);
-                found.push((j as u32, dist, probe as u32));
+                if dist <= threshold {
+                    found.push((j as u32, dist, probe));
+                }
             }
             shifted.push(prepared);
-            // bounded memory whatever the cells' sizes
-            if found.len() >= 4 * keep.max(CELL_SIZE) {
+            if found.len() >= keep {
                 keep_smallest(&mut found, keep, by);
+                threshold = found.iter().map(|f| f.1).fold(f32::NEG_INFINITY, f32::max);
             }
         }
         // the nearest by first bytes, ranked again by whole codes
@@ -1019,11 +1149,17 @@ impl Ivf {
             );
             f.1 = Sq::distance(&shifted[f.2 as usize], first, second);
         }
-        keep_smallest(&mut found, k, by);
         found.sort_by(by);
         found
             .into_iter()
-            .map(|(j, dist, _)| (self.items[j as usize], dist))
+            .map(|(j, dist, probe)| {
+                let e = shifted[probe as usize].error;
+                (
+                    self.items[j as usize],
+                    dist,
+                    e * 1.01 + 1e-6 * dist.max(0.0).sqrt(),
+                )
+            })
             .collect()
     }
 
@@ -1110,9 +1246,9 @@ mod tests {
         let (mut hits, mut total) = (0, 0);
         for qi in (0..n).step_by(97) {
             let q = &points[qi * d..(qi + 1) * d];
-            let got = ivf.search(q, 20);
+            let got = ivf.search(q, 20, SearchEffort::default());
             assert_eq!(got[0].0, qi as u32);
-            assert_eq!(got, again.search(q, 20));
+            assert_eq!(got, again.search(q, 20, SearchEffort::default()));
             // each distance by code is within the rounding bound of the true one
             for &(i, dc) in &got {
                 let de = distance_sq(flat.point(i), q);
@@ -1282,7 +1418,7 @@ mod tests {
         for i in (3_000..5_000u32).step_by(97) {
             let q = now.point(i);
             // (its residual may lie beyond its cell's ranges: no bound on the distance)
-            assert_eq!(c.ivf.search(q, 1)[0].0, i);
+            assert_eq!(c.ivf.search(q, 1, SearchEffort::default())[0].0, i);
         }
         // rewritten for the new snapshot, it reads back exactly
         let again = c.ivf.to_cache(2, &now_origins);

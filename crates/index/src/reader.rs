@@ -54,7 +54,7 @@ use kiddo::immutable::float::kdtree::ImmutableKdTree;
 
 use crate::FORMAT_VERSION;
 use crate::error::{IndexError, Result};
-use crate::ivf::{Ivf, Origin};
+use crate::ivf::{Ivf, Origin, SearchEffort};
 use crate::manifest::{Manifest, segment_file_name};
 use crate::record::{ShapeId, ShapeRecord, canonical_path};
 use crate::segment;
@@ -132,6 +132,7 @@ pub struct IndexReader<const D: usize> {
     origins: Vec<Origin>,
     search: OnceLock<Search<D>>,
     mode: SearchMode,
+    effort: SearchEffort,
     load_time: Duration,
 }
 
@@ -509,6 +510,7 @@ impl<const D: usize> IndexReader<D> {
             origins,
             search: OnceLock::new(),
             mode: SearchMode::Auto,
+            effort: SearchEffort::default(),
             load_time: start.elapsed(),
         })
     }
@@ -519,6 +521,18 @@ impl<const D: usize> IndexReader<D> {
         self.mode = mode;
         self.search = OnceLock::new();
         self
+    }
+
+    /// This snapshot searching its inverted file with `effort` (no effect on the exact
+    /// search; the search structure is kept).
+    pub fn with_search_effort(mut self, effort: SearchEffort) -> Self {
+        self.effort = effort;
+        self
+    }
+
+    /// How much of the inverted file an approximate search reads.
+    pub fn search_effort(&self) -> SearchEffort {
+        self.effort
     }
 
     /// Whether searches are approximate (the inverted file) for this snapshot and mode.
@@ -858,9 +872,14 @@ impl<const D: usize> IndexReader<D> {
         let search = self.search();
         let items: Vec<usize> = match (&search.ivf, &search.tree) {
             (Some(ivf), _) => {
-                // distances as the codes give them: no descriptor is read
-                let mut out: Vec<ComponentMatch> = ivf
-                    .search(query, qty.get())
+                // distances as the codes give them; descriptors are read only for the codes
+                // too close to the k-th place to be told apart
+                let found = ivf.search_bounded(query, qty.get(), self.effort);
+                let exact = |i: u32| {
+                    self.descriptor_slice(i as usize)
+                        .map(|d| crate::ivf::distance_sq(query, d))
+                };
+                let mut out: Vec<ComponentMatch> = crate::ivf::resolve(&found, qty.get(), exact)
                     .into_iter()
                     .filter_map(|(i, distance_sq)| {
                         let (slot, component) = self.owner(i as usize)?;

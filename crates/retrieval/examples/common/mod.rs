@@ -1,3 +1,4 @@
+#![allow(dead_code)] // each example uses a part of this module
 //! What this crate's scale examples (`query_scale`, `ann_compare`) share: the grown copies of
 //! real records, resident memory, medians.
 

@@ -1,0 +1,206 @@
+//! Where the approximate search loses the exact ranking's top 10, and what each search effort
+//! costs: for several [`SearchEffort`]s (fine cells scanned, re-ranked candidates), the search
+//! of a query's parts, the recall of each part's `CANDIDATES_PER_COMPONENT` exact neighbours,
+//! and how many queries get the exact ranking's top 10: with the neighbours as the inverted
+//! file gives them, and with the same neighbours at their true distances (which separates the
+//! neighbours missed from the rounding of the distances that vote for candidates).
+//!
+//! The index is grown as `query_scale` grows it (copies of real records, every descriptor
+//! value moved by up to ±0.01), from the first SOURCES shapes of the source index only: with
+//! S sources and N shapes, each source has N / S near-identical copies, so a small index has
+//! the density of near duplicates of a large one (200 sources at 1,000,000 shapes is 5,000
+//! copies each; so are 20 sources at 100,000). Queries are indexed shapes' parts moved alike.
+//!
+//! `cargo run --release -p keycomp-retrieval --example search_effort -- SHAPES INDEX [QUERIES]
+//! [SOURCES] [EFFORTS]` (EFFORTS: comma-separated `COARSExFINExRERANK` (coarse cells
+//! probed, fine cells examined, re-ranked candidates per neighbour), default
+//! `4x12x2,4x48x2,4x96x2,4x192x2`; `SCALE_DIR=DIR` puts the grown index in DIR). Prints a markdown
+//! table; medians over the queries.
+
+use std::time::Instant;
+
+mod common;
+use common::{grown_copy, median};
+use keycomp_describe::DIM;
+use keycomp_index::{
+    ComponentMatch, IndexReader, IndexWriter, SearchEffort, SearchMode, ShapeId, ShapeRecord,
+};
+use keycomp_retrieval::{CANDIDATES_PER_COMPONENT, MatchParams, ShapeView, rank_neighbours};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// A query's matching view (no area check: the copies' areas are not perturbed).
+fn view<'a>(descriptors: &'a [[f32; DIM]], layout: &'a [f32]) -> ShapeView<'a> {
+    ShapeView {
+        descriptors,
+        layout,
+        areas: &[],
+        centres: &[],
+        sample: &[],
+    }
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().collect();
+    let usage = "usage: search_effort SHAPES INDEX [QUERIES] [SOURCES] [EFFORTS]";
+    let n: u64 = args.get(1).ok_or(usage)?.parse()?;
+    let source = args.get(2).ok_or(usage)?;
+    let queries: usize = args.get(3).map_or(Ok(20), |q| q.parse())?;
+    let mut src: Vec<ShapeRecord<DIM>> = IndexReader::<DIM>::open(source)?
+        .shapes()?
+        .iter()
+        .map(|s| (*s.record).clone())
+        .collect();
+    if let Some(s) = args.get(4) {
+        src.truncate(s.parse()?);
+    }
+    if src.is_empty() {
+        return Err("no source shape".into());
+    }
+    let efforts: Vec<SearchEffort> = args
+        .get(5)
+        .map_or("4x12x2,4x48x2,4x96x2,4x192x2", String::as_str)
+        .split(',')
+        .map(|e| {
+            let v: Vec<usize> = e
+                .split('x')
+                .map(|v| v.trim().parse())
+                .collect::<Result<_, _>>()?;
+            match v[..] {
+                [coarse_probes, fine_probes, rerank] => Ok(SearchEffort {
+                    coarse_probes,
+                    fine_probes,
+                    rerank,
+                }),
+                _ => Err::<_, Box<dyn std::error::Error>>("an effort is COARSExFINExRERANK".into()),
+            }
+        })
+        .collect::<Result<_, _>>()?;
+
+    let dir = match std::env::var_os("SCALE_DIR") {
+        Some(parent) => tempfile::tempdir_in(parent)?,
+        None => tempfile::tempdir()?,
+    };
+    let mut jitter = ChaCha8Rng::seed_from_u64(2);
+    {
+        let mut w = IndexWriter::<DIM>::create_or_open(dir.path())?;
+        let mut i = 0;
+        while i < n {
+            let end = (i + 5000).min(n);
+            w.add_batch((i..end).map(|i| grown_copy(&src, i, &mut jitter)).collect())?;
+            i = end;
+        }
+    }
+    let open = |effort: SearchEffort| -> Result<IndexReader<DIM>, keycomp_index::IndexError> {
+        Ok(IndexReader::<DIM>::open_mapped(dir.path())?
+            .with_search_mode(SearchMode::Approximate)
+            .with_search_effort(effort))
+    };
+    let build = open(SearchEffort::default())?
+        .prepare_search()
+        .as_secs_f64();
+    eprintln!(
+        "{n} shapes from {} sources: inverted file built in {build:.0} s",
+        src.len()
+    );
+
+    // queries: indexed shapes' parts moved by up to ±0.01, as in query_scale
+    let exact = IndexReader::<DIM>::open_mapped(dir.path())?.with_search_mode(SearchMode::Exact);
+    let ids: Vec<ShapeId> = exact.ids().collect();
+    let mut rng = ChaCha8Rng::seed_from_u64(1);
+    let mut asked: Vec<(Vec<[f32; DIM]>, Vec<f32>)> = Vec::new();
+    for _ in 0..queries {
+        let id = ids[rng.random_range(0..ids.len())];
+        let rec = exact.get(id)?.ok_or("a listed shape has no record")?;
+        let descs = rec
+            .components
+            .iter()
+            .map(|c| {
+                let mut d = c.descriptor;
+                for x in &mut d {
+                    *x += rng.random_range(-0.01..0.01);
+                }
+                d
+            })
+            .collect();
+        asked.push((descs, rec.layout.clone()));
+    }
+    let params = MatchParams::default();
+    let top = |v: &[keycomp_retrieval::Ranked]| v.iter().map(|r| r.id).collect::<Vec<_>>();
+    // the exact neighbours of every query part in one batch, and the exact rankings
+    let parts: Vec<[f32; DIM]> = asked.iter().flat_map(|q| q.0.iter().copied()).collect();
+    let mut all = exact.nearest_components_batch(&parts, CANDIDATES_PER_COMPONENT)?;
+    let mut truth = Vec::new();
+    for (d, l) in &asked {
+        let rest = all.split_off(d.len());
+        let ranked = rank_neighbours(&exact, view(d, l), &all, 11, &params)?;
+        // the gap between the 10th and the 11th score: how firm the exact top 10 is
+        let gap = match (ranked.get(9), ranked.get(10)) {
+            (Some(a), Some(b)) => a.result.score - b.result.score,
+            _ => f64::INFINITY,
+        };
+        truth.push((top(&ranked[..ranked.len().min(10)]), all, gap));
+        all = rest;
+    }
+    let gaps: Vec<f64> = truth.iter().map(|t| t.2).collect();
+    eprintln!(
+        "exact rankings done; gap between the 10th and 11th score: median {:.2e}, smallest {:.2e}",
+        median(gaps.clone()),
+        gaps.iter().copied().fold(f64::INFINITY, f64::min)
+    );
+
+    println!(
+        "| coarse cells probed | fine cells examined | re-ranked (× k) | query's parts searched (ms) | recall of the {CANDIDATES_PER_COMPONENT} nearest | top 10 as exact (same order / same set) | the same neighbours at true distances: top 10 as exact |"
+    );
+    println!("|---:|---:|---:|---:|---:|---:|---:|");
+    for effort in efforts {
+        let reader = open(effort)?;
+        reader.prepare_search();
+        let (mut times, mut recalls) = (Vec::new(), Vec::new());
+        let (mut same, mut same_set, mut same_true) = (0, 0, 0);
+        for ((d, l), (want, exact_nb, _)) in asked.iter().zip(&truth) {
+            let t = Instant::now();
+            let got = reader.nearest_components_batch(d, CANDIDATES_PER_COMPONENT)?;
+            times.push(t.elapsed().as_secs_f64() * 1e3);
+            let key = |m: &ComponentMatch| (m.shape, m.component);
+            let (mut found, mut total) = (0usize, 0usize);
+            for (g, w) in got.iter().zip(exact_nb) {
+                let g: Vec<_> = g.iter().map(key).collect();
+                found += w.iter().filter(|m| g.contains(&key(m))).count();
+                total += w.len();
+            }
+            recalls.push(found as f64 / total.max(1) as f64);
+            let r = top(&rank_neighbours(&reader, view(d, l), &got, 10, &params)?);
+            same += usize::from(r == *want);
+            let (mut a, mut b) = (r.clone(), want.clone());
+            a.sort_unstable();
+            b.sort_unstable();
+            same_set += usize::from(a == b);
+            // the same neighbours, their distances from the descriptors
+            let mut at_true = got.clone();
+            for (nb, q) in at_true.iter_mut().zip(d) {
+                for m in nb.iter_mut() {
+                    let rec = exact.get(m.shape)?.ok_or("a neighbour has no record")?;
+                    m.distance_sq =
+                        keycomp_index::squared_distance(q, &rec.components[m.component].descriptor);
+                }
+                nb.sort_by(|a, b| {
+                    a.distance_sq
+                        .total_cmp(&b.distance_sq)
+                        .then((a.shape, a.component).cmp(&(b.shape, b.component)))
+                });
+            }
+            let r = top(&rank_neighbours(&exact, view(d, l), &at_true, 10, &params)?);
+            same_true += usize::from(r == *want);
+        }
+        println!(
+            "| {} | {} | {} | {:.1} | {:.4} | {same} / {same_set} of {queries} | {same_true} of {queries} |",
+            effort.coarse_probes,
+            effort.fine_probes,
+            effort.rerank,
+            median(times),
+            recalls.iter().sum::<f64>() / recalls.len().max(1) as f64,
+        );
+    }
+    Ok(())
+}
