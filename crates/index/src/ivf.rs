@@ -12,15 +12,23 @@
 //! 65,536 levels spanning that value's range over the cell's members (128 bytes instead of 256
 //! for 64 values), kept as two arrays: the first bytes, the second bytes. A query ranks the
 //! coarse centroids, takes the fine cells of its [`COARSE_PROBES`] nearest coarse cells, and
-//! scans the [`FINE_PROBES`] fine cells with the nearest centroids, each code's distance to the
-//! query computed from the levels its first bytes stand for (asymmetric distances, Jégou et al.
-//! Section III.A); the [`RERANK`]` × k` nearest are ranked again by their whole codes. That is
-//! about `FINE_PROBES × CELL_SIZE` codes instead of `n` descriptors, and no descriptor read,
-//! so that an index larger than memory is searched from the inverted file alone. A true
-//! neighbour is missed when it lies in a cell whose centroid is not among those, or when
-//! rounding puts it beyond the re-ranked ones or (by at most half a level per value) beyond the
-//! `k` nearest by whole code, so recall is measured, not guaranteed (BENCHMARKS.md, "Candidate
-//! search").
+//! examines the [`FINE_PROBES`] fine cells with the nearest centroids, nearest first. A cell is
+//! scanned unless its box (the points its codes can stand for: each value from its first
+//! level to its last) is farther from the query than the [`RERANK`]` × k`-th nearest code found
+//! so far: no code of such a cell could enter them (a bound in the manner of the
+//! branch-and-bound search of K. Fukunaga and P. M. Narendra, "A branch and bound algorithm
+//! for computing k-nearest neighbors", IEEE Trans. Computers C-24(7), 1975). The scan ranks
+//! codes by the levels their first bytes stand for (asymmetric distances, Jégou et al.
+//! Section III.A); the [`RERANK`]` × k` nearest are ranked again by their whole codes, and
+//! the few whose whole-code distances are too close to the `k`-th place to tell apart (within
+//! half a level per value) are settled by their descriptors ([`Settle`]). Near-duplicate
+//! parts fill many neighbouring cells, all of them needed for the `k` nearest; cells of other
+//! parts are far and are skipped by their boxes, so that examining many cells costs little
+//! more than scanning a few (BENCHMARKS.md, "A million shapes searched from memory"). Codes
+//! are read instead of the `n` descriptors, so that an index larger than memory is searched
+//! from the inverted file alone. A true neighbour is missed when it lies in a cell not
+//! examined, or when rounding puts it beyond the re-ranked ones, so recall is measured, not
+//! guaranteed ([`SearchEffort`] trades speed for it).
 //!
 //! One byte per value with one range for all cells, and no re-ranking, was measured too: the
 //! ranking's top 10 then matched the exact one's for 9 of 20 queries at 100,000 shapes, against
@@ -69,6 +77,10 @@ pub struct SearchEffort {
     /// Candidates by first bytes that are ranked again by whole codes, as a multiple of the
     /// neighbours asked for (at least 1).
     pub rerank: usize,
+    /// Whether codes too close to the `k`-th place to tell apart are settled by reading their
+    /// descriptors (a few per search; without, no descriptor is read, and two parts whose
+    /// distances differ by less than the codes' rounding may change places at the `k`-th).
+    pub settle: bool,
 }
 
 impl Default for SearchEffort {
@@ -77,6 +89,7 @@ impl Default for SearchEffort {
             coarse_probes: COARSE_PROBES,
             fine_probes: FINE_PROBES,
             rerank: RERANK,
+            settle: true,
         }
     }
 }
@@ -295,55 +308,89 @@ pub(crate) struct FromCache {
 /// built again.
 pub(crate) const GROWTH: usize = 2;
 
-/// The `k` nearest of `found` (items with a squared distance and the largest error of its
-/// square root, as [`Ivf::search_bounded`] gives them), nearest first (ties by item): an item
-/// that fewer than `k` others may be nearer than is in, one that `k` others are surely nearer
-/// than is out, and the places left go to the others by their true squared distance
-/// (`exact(item)`; the code's when that is `None`), so that codes whose distances are too
-/// close to tell apart at the `k`-th place are told apart by the descriptors, read for those
-/// only.
+/// The `k` nearest of `found` ([`Settle`]), nearest first, the open ones placed by
+/// `exact(item)`.
+#[cfg(test)]
 pub(crate) fn resolve(
     found: &[(u32, f32, f32)],
     k: usize,
     exact: impl Fn(u32) -> Option<f32>,
 ) -> Vec<(u32, f32)> {
-    let by = |a: &(u32, f32), b: &(u32, f32)| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0));
-    if found.len() <= k {
-        let mut all: Vec<(u32, f32)> = found.iter().map(|f| (f.0, f.1)).collect();
-        all.sort_by(by);
-        return all;
-    }
-    let bounds: Vec<(f32, f32)> = found
-        .iter()
-        .map(|&(_, d, e)| {
-            let r = d.max(0.0).sqrt();
-            let lo = (r - e).max(0.0);
-            (lo * lo, (r + e) * (r + e))
-        })
-        .collect();
-    let mut los: Vec<f32> = bounds.iter().map(|b| b.0).collect();
-    let mut his: Vec<f32> = bounds.iter().map(|b| b.1).collect();
-    los.sort_by(f32::total_cmp);
-    his.sort_by(f32::total_cmp);
-    let (mut sure, mut open) = (Vec::new(), Vec::new());
-    for (f, &(lo, hi)) in found.iter().zip(&bounds) {
-        // others that may be nearer (the item itself counted when its own bounds differ)
-        let may = los.partition_point(|&l| l < hi) - usize::from(lo < hi);
-        // others surely nearer
-        let surely = his.partition_point(|&h| h < lo);
-        if may < k {
-            sure.push((f.0, f.1));
-        } else if surely < k {
-            open.push((f.0, exact(f.0).unwrap_or(f.1)));
+    Settle::new(found, k).finish(exact)
+}
+
+/// The `k` nearest of a search's candidates (items with a squared distance and the largest
+/// error of its square root, as [`Ivf::search_bounded`] gives them): an item that fewer than
+/// `k` others may be nearer than is in, one that `k` others are surely nearer than is out, and
+/// the places left go to the others ([`Settle::open`]) by their true squared distances, so
+/// that codes whose distances are too close to tell apart at the `k`-th place are told apart
+/// by the descriptors, read for those only.
+pub(crate) struct Settle {
+    k: usize,
+    /// Items surely among the `k` nearest, with their codes' distances.
+    sure: Vec<(u32, f32)>,
+    /// Items that may be among them or not, with their codes' distances.
+    open: Vec<(u32, f32)>,
+}
+
+impl Settle {
+    /// Sorts `found` (items, codes' squared distances, errors of their square roots).
+    pub(crate) fn new(found: &[(u32, f32, f32)], k: usize) -> Settle {
+        if found.len() <= k {
+            return Settle {
+                k,
+                sure: found.iter().map(|f| (f.0, f.1)).collect(),
+                open: Vec::new(),
+            };
         }
+        let bounds: Vec<(f32, f32)> = found
+            .iter()
+            .map(|&(_, d, e)| {
+                let r = d.max(0.0).sqrt();
+                let lo = (r - e).max(0.0);
+                (lo * lo, (r + e) * (r + e))
+            })
+            .collect();
+        let mut los: Vec<f32> = bounds.iter().map(|b| b.0).collect();
+        let mut his: Vec<f32> = bounds.iter().map(|b| b.1).collect();
+        los.sort_by(f32::total_cmp);
+        his.sort_by(f32::total_cmp);
+        let (mut sure, mut open) = (Vec::new(), Vec::new());
+        for (f, &(lo, hi)) in found.iter().zip(&bounds) {
+            // others that may be nearer (the item itself counted when its own bounds differ)
+            let may = los.partition_point(|&l| l < hi) - usize::from(lo < hi);
+            // others surely nearer
+            let surely = his.partition_point(|&h| h < lo);
+            if may < k {
+                sure.push((f.0, f.1));
+            } else if surely < k {
+                open.push((f.0, f.1));
+            }
+        }
+        Settle { k, sure, open }
     }
-    open.sort_by(by);
-    open.truncate(k.saturating_sub(sure.len()));
-    sure.extend(open);
-    sure.sort_by(by);
-    // items of equal distances at the k-th place, all sure: the first by item
-    sure.truncate(k);
-    sure
+
+    /// The items whose true distances are needed.
+    pub(crate) fn open(&self) -> impl Iterator<Item = &u32> {
+        self.open.iter().map(|o| &o.0)
+    }
+
+    /// The `k` nearest, nearest first (ties by item), the open items placed by `exact`.
+    pub(crate) fn finish(self, exact: impl Fn(u32) -> Option<f32>) -> Vec<(u32, f32)> {
+        let by = |a: &(u32, f32), b: &(u32, f32)| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0));
+        let Settle { k, mut sure, open } = self;
+        let mut open: Vec<(u32, f32)> = open
+            .into_iter()
+            .map(|(i, d)| (i, exact(i).unwrap_or(d)))
+            .collect();
+        open.sort_by(by);
+        open.truncate(k.saturating_sub(sure.len()));
+        sure.extend(open);
+        sure.sort_by(by);
+        // items of equal distances at the k-th place, all sure: the first by item
+        sure.truncate(k);
+        sure
+    }
 }
 
 /// Keeps the `n` smallest elements of `v` by `cmp` (a total order), in no particular order.
@@ -1072,7 +1119,7 @@ impl Ivf {
     /// The search behind [`Ivf::search`]: the `rerank × k` candidates ranked by whole codes
     /// (fewer if fewer were found), nearest first, each with its distance as its code gives it
     /// and how far the square root of that may be from the true one (half a level per value
-    /// of its cell, and float rounding), for [`resolve`] to settle the `k`-th place.
+    /// of its cell, and float rounding), for [`Settle`] to settle the `k`-th place.
     pub(crate) fn search_bounded(
         &self,
         q: &[f32],
@@ -1107,7 +1154,7 @@ impl Ivf {
             a.1.total_cmp(&b.1)
                 .then_with(|| self.items[a.0 as usize].cmp(&self.items[b.0 as usize]))
         };
-        let mut found: Vec<(u32, f32, u32)> = Vec::with_capacity(keep + CELL_SIZE);
+        let mut found: Vec<(u32, f32, u32)> = Vec::with_capacity(keep.min(1 << 12) + CELL_SIZE);
         let mut shifted = Vec::with_capacity(fine.len());
         // the largest distance among the `keep` nearest found so far, once there are `keep`
         let mut threshold = f32::INFINITY;
@@ -1263,6 +1310,198 @@ mod tests {
             total += want.len();
         }
         assert!(hits as f64 >= 0.9 * total as f64, "recall {hits}/{total}");
+    }
+
+    /// Near-duplicate points (a few sources, many copies each moved by up to ±0.01, as the
+    /// scale benchmarks grow an index): with every cell examined and every candidate re-ranked
+    /// by whole codes, skipping cells by their boxes loses nothing, and settling the k-th
+    /// place by the true distances gives exactly the exact search's neighbours.
+    #[test]
+    fn every_cell_examined_gives_the_exact_neighbours() {
+        let d = 16;
+        let mut rng = ChaCha8Rng::seed_from_u64(9);
+        let sources: Vec<Vec<f32>> = (0..6)
+            .map(|_| (0..d).map(|_| rng.random_range(0.0..1.0)).collect())
+            .collect();
+        let n = 6_000;
+        let points: Vec<f32> = (0..n)
+            .flat_map(|i| {
+                let c = &sources[i % sources.len()];
+                c.iter()
+                    .map(|x| x + rng.random_range(-0.01..0.01))
+                    .collect::<Vec<f32>>()
+            })
+            .collect();
+        let flat = Flat { data: &points, d };
+        let ivf = Ivf::build(&flat, d);
+        let all = SearchEffort {
+            coarse_probes: usize::MAX,
+            fine_probes: usize::MAX,
+            rerank: n,
+            settle: true,
+        };
+        let k = 30;
+        for qi in (0..n).step_by(211) {
+            let q: Vec<f32> = points[qi * d..(qi + 1) * d]
+                .iter()
+                .map(|x| x + rng.random_range(-0.01..0.01))
+                .collect();
+            let found = ivf.search_bounded(&q, k, all);
+            let got = resolve(&found, k, |i| Some(distance_sq(flat.point(i), &q)));
+            let mut got: Vec<u32> = got.into_iter().map(|g| g.0).collect();
+            let mut want = exact(&points, d, &q, k);
+            got.sort_unstable();
+            want.sort_unstable();
+            assert_eq!(got, want, "query {qi}");
+        }
+    }
+
+    /// The search with cells skipped by their boxes gives what a scan of every code gives:
+    /// the `rerank × k` nearest by first bytes, ranked again by whole codes.
+    #[test]
+    fn skipping_cells_by_their_boxes_loses_nothing() {
+        let d = 16;
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let sources: Vec<Vec<f32>> = (0..4)
+            .map(|_| (0..d).map(|_| rng.random_range(0.0..1.0)).collect())
+            .collect();
+        let n = 20_000;
+        let points: Vec<f32> = (0..n)
+            .flat_map(|i| {
+                let c = &sources[i % sources.len()];
+                c.iter()
+                    .map(|x| x + rng.random_range(-0.01..0.01))
+                    .collect::<Vec<f32>>()
+            })
+            .collect();
+        let flat = Flat { data: &points, d };
+        let ivf = Ivf::build(&flat, d);
+        let effort = SearchEffort {
+            coarse_probes: usize::MAX,
+            fine_probes: usize::MAX,
+            rerank: 2,
+            settle: true,
+        };
+        let m = ivf.pq.bytes();
+        let k = 20;
+        for qi in (0..n).step_by(331) {
+            let q: Vec<f32> = points[qi * d..(qi + 1) * d]
+                .iter()
+                .map(|x| x + rng.random_range(-0.01..0.01))
+                .collect();
+            // every code of every cell, by first bytes, then the best by whole codes
+            let mut all: Vec<(u32, f32, f32)> = Vec::new();
+            for (ci, cells) in ivf.ranges.iter().enumerate() {
+                for (fi, &(start, end)) in cells.iter().enumerate() {
+                    let c = &ivf.fine[ci][fi * d..(fi + 1) * d];
+                    let r: Vec<f32> = q.iter().zip(c).map(|(q, c)| q - c).collect();
+                    let shifted = ivf.pq.shift(ivf.bases[ci] + fi, &r);
+                    for j in start as usize..end as usize {
+                        let (first, second) = (
+                            &ivf.codes[j * m..(j + 1) * m],
+                            &ivf.refine[j * m..(j + 1) * m],
+                        );
+                        all.push((
+                            ivf.items[j],
+                            Sq::coarse_distance(&shifted, first),
+                            Sq::distance(&shifted, first, second),
+                        ));
+                    }
+                }
+            }
+            all.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
+            all.truncate(2 * k);
+            all.sort_by(|a, b| a.2.total_cmp(&b.2).then(a.0.cmp(&b.0)));
+            let want: Vec<(u32, f32)> = all.iter().map(|a| (a.0, a.2)).collect();
+            let got: Vec<(u32, f32)> = ivf
+                .search_bounded(&q, k, effort)
+                .into_iter()
+                .map(|g| (g.0, g.1))
+                .collect();
+            assert_eq!(got, want, "query {qi}");
+        }
+    }
+
+    /// A cell's box is no farther from a query than any code of the cell, by first bytes or
+    /// whole.
+    #[test]
+    fn a_cell_box_bounds_its_codes() {
+        let d = 8;
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let lo: Vec<f32> = (0..d).map(|_| rng.random_range(-1.0..0.0)).collect();
+        let hi: Vec<f32> = lo.iter().map(|l| l + rng.random_range(0.0..2.0)).collect();
+        let sq = Sq::from_ranges(&lo, &hi, d);
+        for _ in 0..500 {
+            let r: Vec<f32> = (0..d).map(|_| rng.random_range(-3.0..3.0)).collect();
+            let x: Vec<f32> = lo
+                .iter()
+                .zip(&hi)
+                .map(|(l, h)| rng.random_range(*l..=*h))
+                .collect();
+            let (mut first, mut second) = (vec![0u8; d], vec![0u8; d]);
+            sq.encode(0, &x, &mut first, &mut second);
+            let shifted = sq.shift(0, &r);
+            let bound = sq.box_distance(0, &r);
+            let slack = 1e-5 * (1.0 + bound);
+            assert!(bound <= Sq::coarse_distance(&shifted, &first) + slack);
+            assert!(bound <= Sq::distance(&shifted, &first, &second) + slack);
+        }
+    }
+
+    /// Found items as `search_bounded` gives them: true distances `truth`, code distances
+    /// moved within `err` of them (in square roots).
+    fn noisy(truth: &[f32], err: f32, rng: &mut ChaCha8Rng) -> Vec<(u32, f32, f32)> {
+        let mut found: Vec<(u32, f32, f32)> = truth
+            .iter()
+            .enumerate()
+            .map(|(i, &t)| {
+                let r = (t.sqrt() + rng.random_range(-err..=err)).max(0.0);
+                (i as u32, r * r, err)
+            })
+            .collect();
+        found.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
+        found
+    }
+
+    proptest::proptest! {
+        /// Whatever the rounding (within the bound given), the k nearest by true distance are
+        /// the result, and descriptors are read only for items whose bounds overlap the k-th
+        /// place's.
+        #[test]
+        fn resolve_gives_the_true_k_nearest(
+            seed in 0u64..1000,
+            n in 1usize..200,
+            k in 1usize..80,
+            err in 0.0f32..0.05,
+        ) {
+            let mut rng = ChaCha8Rng::seed_from_u64(seed);
+            let truth: Vec<f32> = (0..n).map(|_| rng.random_range(0.0f32..1.0)).collect();
+            let found = noisy(&truth, err, &mut rng);
+            let reads = std::cell::Cell::new(0usize);
+            let got = resolve(&found, k, |i| {
+                reads.set(reads.get() + 1);
+                Some(truth[i as usize])
+            });
+            let mut want: Vec<u32> = (0..n as u32).collect();
+            want.sort_by(|a, b| truth[*a as usize].total_cmp(&truth[*b as usize]).then(a.cmp(b)));
+            want.truncate(k);
+            want.sort_unstable();
+            let mut ids: Vec<u32> = got.iter().map(|g| g.0).collect();
+            ids.sort_unstable();
+            proptest::prop_assert_eq!(ids, want);
+            if err == 0.0 || n <= k {
+                proptest::prop_assert_eq!(reads.get(), 0);
+            }
+            // nearest first
+            proptest::prop_assert!(got.windows(2).all(|w| w[0].1 <= w[1].1));
+        }
+    }
+
+    #[test]
+    fn resolve_breaks_ties_at_the_kth_place_by_item() {
+        let found = [(4, 1.0, 0.0), (2, 2.0, 0.0), (9, 2.0, 0.0), (1, 2.0, 0.0)];
+        let got = resolve(&found, 2, |_| panic!("no descriptor is needed"));
+        assert_eq!(got, vec![(4, 1.0), (1, 2.0)]);
     }
 
     /// `shapes` shapes of `per` components each, in two segments.

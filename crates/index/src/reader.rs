@@ -78,7 +78,9 @@ pub struct ComponentMatch {
     /// Squared Euclidean distance between the query and the component's descriptor; with an
     /// approximate search ([`IndexReader::search_is_approximate`]), the distance to the
     /// descriptor as the inverted file's code of it stands for (its square root within
-    /// [`IndexReader::code_error`] of the true one), so that no descriptor is read.
+    /// [`IndexReader::code_error`] of the true one), so that descriptors are read only for
+    /// the few components whose codes are too close to the `k`-th place to tell whether they
+    /// are among the `k` nearest; theirs is the true distance.
     pub distance_sq: f32,
 }
 
@@ -263,6 +265,22 @@ impl MappedSegment {
         let block = crate::mapped::block(self.payload(), &self.table)?;
         let start = e.first as usize * dim;
         block.get(start..start + e.components as usize * dim)
+    }
+
+    /// Asks the system to start reading descriptor `component` of the record at `position`
+    /// (a hint, as [`MappedSegment::prefetch`]).
+    fn prefetch_descriptor(&self, position: usize, component: usize, dim: usize) {
+        #[cfg(unix)]
+        if let Some(e) = self.table.entries.get(position)
+            && component < e.components as usize
+        {
+            let offset = self.table.block.start + 4 * dim * (e.first as usize + component);
+            let _ = self
+                .map
+                .advise_range(memmap2::Advice::WillNeed, offset, 4 * dim);
+        }
+        #[cfg(not(unix))]
+        let _ = (position, component, dim);
     }
 
     /// Asks the system to start reading the record at `position` and its descriptors (a
@@ -872,26 +890,8 @@ impl<const D: usize> IndexReader<D> {
         let search = self.search();
         let items: Vec<usize> = match (&search.ivf, &search.tree) {
             (Some(ivf), _) => {
-                // distances as the codes give them; descriptors are read only for the codes
-                // too close to the k-th place to be told apart
-                let found = ivf.search_bounded(query, qty.get(), self.effort);
-                let exact = |i: u32| {
-                    self.descriptor_slice(i as usize)
-                        .map(|d| crate::ivf::distance_sq(query, d))
-                };
-                let mut out: Vec<ComponentMatch> = crate::ivf::resolve(&found, qty.get(), exact)
-                    .into_iter()
-                    .filter_map(|(i, distance_sq)| {
-                        let (slot, component) = self.owner(i as usize)?;
-                        Some(ComponentMatch {
-                            shape: self.slots[slot].id,
-                            component,
-                            distance_sq,
-                        })
-                    })
-                    .collect();
-                sort_matches(&mut out);
-                return Ok(out);
+                let mut out = self.ivf_nearest(ivf, std::slice::from_ref(query), qty.get());
+                return Ok(out.pop().unwrap_or_default());
             }
             (None, Some(tree)) => tree
                 .nearest_n::<SquaredEuclidean>(query, qty)
@@ -934,9 +934,75 @@ impl<const D: usize> IndexReader<D> {
             }
             return Ok(self.scan(queries, k));
         }
+        if let Some(ivf) = &search.ivf {
+            if let Some(i) = queries
+                .iter()
+                .flat_map(|q| q.iter())
+                .position(|v| !v.is_finite())
+            {
+                return Err(IndexError::InvalidQuery {
+                    reason: format!("descriptor value {} is not finite", i % D.max(1)),
+                });
+            }
+            return Ok(self.ivf_nearest(ivf, queries, k));
+        }
         queries
             .par_iter()
             .map(|q| self.nearest_components(q, k))
+            .collect()
+    }
+
+    /// The approximate search of `queries` (finite), in parallel: distances as the codes give
+    /// them, except for the codes too close to the `k`-th place to tell whether they are
+    /// among the `k` nearest, whose descriptors are read (asked of the disk all at once, for
+    /// all queries, before any is read).
+    fn ivf_nearest(&self, ivf: &Ivf, queries: &[[f32; D]], k: usize) -> Vec<Vec<ComponentMatch>> {
+        let found: Vec<Vec<(u32, f32, f32)>> = queries
+            .par_iter()
+            .map(|q| {
+                let mut f = ivf.search_bounded(q, k, self.effort);
+                if !self.effort.settle {
+                    // the k nearest by code, no descriptor read
+                    f.truncate(k);
+                }
+                f
+            })
+            .collect();
+        let settled: Vec<crate::ivf::Settle> = found
+            .iter()
+            .map(|f| crate::ivf::Settle::new(f, k))
+            .collect();
+        for &i in settled.iter().flat_map(|s| s.open()) {
+            if let Some((slot, component)) = self.owner(i as usize) {
+                let s = self.slots[slot];
+                if let Some(m) = self.mapped.get(s.segment as usize) {
+                    m.prefetch_descriptor(s.position as usize, component, D);
+                }
+            }
+        }
+        queries
+            .par_iter()
+            .zip(settled)
+            .map(|(query, settle)| {
+                let exact = |i: u32| {
+                    self.descriptor_slice(i as usize)
+                        .map(|d| crate::ivf::distance_sq(query, d))
+                };
+                let mut out: Vec<ComponentMatch> = settle
+                    .finish(exact)
+                    .into_iter()
+                    .filter_map(|(i, distance_sq)| {
+                        let (slot, component) = self.owner(i as usize)?;
+                        Some(ComponentMatch {
+                            shape: self.slots[slot].id,
+                            component,
+                            distance_sq,
+                        })
+                    })
+                    .collect();
+                sort_matches(&mut out);
+                out
+            })
             .collect()
     }
 

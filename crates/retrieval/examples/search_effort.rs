@@ -12,10 +12,16 @@
 //! copies each; so are 20 sources at 100,000). Queries are indexed shapes' parts moved alike.
 //!
 //! `cargo run --release -p keycomp-retrieval --example search_effort -- SHAPES INDEX [QUERIES]
-//! [SOURCES] [EFFORTS]` (EFFORTS: comma-separated `COARSExFINExRERANK` (coarse cells
-//! probed, fine cells examined, re-ranked candidates per neighbour), default
-//! `4x12x2,4x48x2,4x96x2,4x192x2`; `SCALE_DIR=DIR` puts the grown index in DIR). Prints a markdown
-//! table; medians over the queries.
+//! [SOURCES] [EFFORTS]` (EFFORTS: comma-separated `COARSExFINExRERANKxSETTLE`: coarse cells
+//! probed, fine cells examined, re-ranked candidates per neighbour, and whether the `k`-th
+//! place is settled by descriptors (1) or not (0); default `4x12x2x0,6x160x2x0,6x160x2x1`;
+//! `SCALE_DIR=DIR` puts the grown index in DIR). With `GROWN=DIR`, the index at DIR (e.g. one
+//! grown by `query_scale`, kept) is searched instead of one grown here, SHAPES and SOURCES
+//! unused, and the true-distance column is left out (it reads every neighbour's record). With
+//! `DROP_CACHES=1` (Linux, as root), the system's page cache is dropped before each effort's
+//! queries, so that the parts of the index they read come from the disk, as for a process's
+//! first queries on an index larger than memory. Prints a markdown table; medians over the
+//! queries.
 
 use std::time::Instant;
 
@@ -59,7 +65,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let efforts: Vec<SearchEffort> = args
         .get(5)
-        .map_or("4x12x2,4x48x2,4x96x2,4x192x2", String::as_str)
+        .map_or("4x12x2x0,6x160x2x0,6x160x2x1", String::as_str)
         .split(',')
         .map(|e| {
             let v: Vec<usize> = e
@@ -67,23 +73,28 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 .map(|v| v.trim().parse())
                 .collect::<Result<_, _>>()?;
             match v[..] {
-                [coarse_probes, fine_probes, rerank] => Ok(SearchEffort {
+                [coarse_probes, fine_probes, rerank, settle @ (0 | 1)] => Ok(SearchEffort {
                     coarse_probes,
                     fine_probes,
                     rerank,
+                    settle: settle == 1,
                 }),
-                _ => Err::<_, Box<dyn std::error::Error>>("an effort is COARSExFINExRERANK".into()),
+                _ => Err::<_, Box<dyn std::error::Error>>(
+                    "an effort is COARSExFINExRERANKxSETTLE (SETTLE: 0 or 1)".into(),
+                ),
             }
         })
         .collect::<Result<_, _>>()?;
 
-    let dir = match std::env::var_os("SCALE_DIR") {
+    let grown = std::env::var_os("GROWN").map(std::path::PathBuf::from);
+    let made = match std::env::var_os("SCALE_DIR") {
         Some(parent) => tempfile::tempdir_in(parent)?,
         None => tempfile::tempdir()?,
     };
-    let mut jitter = ChaCha8Rng::seed_from_u64(2);
-    {
-        let mut w = IndexWriter::<DIM>::create_or_open(dir.path())?;
+    let dir = grown.clone().unwrap_or_else(|| made.path().to_path_buf());
+    if grown.is_none() {
+        let mut jitter = ChaCha8Rng::seed_from_u64(2);
+        let mut w = IndexWriter::<DIM>::create_or_open(&dir)?;
         let mut i = 0;
         while i < n {
             let end = (i + 5000).min(n);
@@ -92,20 +103,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     let open = |effort: SearchEffort| -> Result<IndexReader<DIM>, keycomp_index::IndexError> {
-        Ok(IndexReader::<DIM>::open_mapped(dir.path())?
+        Ok(IndexReader::<DIM>::open_mapped(&dir)?
             .with_search_mode(SearchMode::Approximate)
             .with_search_effort(effort))
     };
     let build = open(SearchEffort::default())?
         .prepare_search()
         .as_secs_f64();
-    eprintln!(
-        "{n} shapes from {} sources: inverted file built in {build:.0} s",
-        src.len()
-    );
+    eprintln!("{}: inverted file ready in {build:.0} s", dir.display());
 
     // queries: indexed shapes' parts moved by up to ±0.01, as in query_scale
-    let exact = IndexReader::<DIM>::open_mapped(dir.path())?.with_search_mode(SearchMode::Exact);
+    let exact = IndexReader::<DIM>::open_mapped(&dir)?.with_search_mode(SearchMode::Exact);
     let ids: Vec<ShapeId> = exact.ids().collect();
     let mut rng = ChaCha8Rng::seed_from_u64(1);
     let mut asked: Vec<(Vec<[f32; DIM]>, Vec<f32>)> = Vec::new();
@@ -150,12 +158,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
 
     println!(
-        "| coarse cells probed | fine cells examined | re-ranked (× k) | query's parts searched (ms) | recall of the {CANDIDATES_PER_COMPONENT} nearest | top 10 as exact (same order / same set) | the same neighbours at true distances: top 10 as exact |"
+        "| coarse cells probed | fine cells examined | re-ranked (× k) | k-th place settled by descriptors | query's parts searched (ms) | recall of the {CANDIDATES_PER_COMPONENT} nearest | top 10 as exact (same order / same set) | the same neighbours at true distances: top 10 as exact |"
     );
-    println!("|---:|---:|---:|---:|---:|---:|---:|");
+    println!("|---:|---:|---:|---|---:|---:|---:|---:|");
     for effort in efforts {
         let reader = open(effort)?;
         reader.prepare_search();
+        if std::env::var_os("DROP_CACHES").is_some_and(|v| v == "1") {
+            std::fs::write("/proc/sys/vm/drop_caches", "3")?;
+        }
         let (mut times, mut recalls) = (Vec::new(), Vec::new());
         let (mut same, mut same_set, mut same_true) = (0, 0, 0);
         for ((d, l), (want, exact_nb, _)) in asked.iter().zip(&truth) {
@@ -176,6 +187,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             a.sort_unstable();
             b.sort_unstable();
             same_set += usize::from(a == b);
+            if grown.is_some() {
+                continue;
+            }
             // the same neighbours, their distances from the descriptors
             let mut at_true = got.clone();
             for (nb, q) in at_true.iter_mut().zip(d) {
@@ -193,11 +207,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let r = top(&rank_neighbours(&exact, view(d, l), &at_true, 10, &params)?);
             same_true += usize::from(r == *want);
         }
+        let at_true = if grown.is_some() {
+            "—".to_string()
+        } else {
+            format!("{same_true} of {queries}")
+        };
         println!(
-            "| {} | {} | {} | {:.1} | {:.4} | {same} / {same_set} of {queries} | {same_true} of {queries} |",
+            "| {} | {} | {} | {} | {:.1} | {:.4} | {same} / {same_set} of {queries} | {at_true} |",
             effort.coarse_probes,
             effort.fine_probes,
             effort.rerank,
+            if effort.settle { "yes" } else { "no" },
             median(times),
             recalls.iter().sum::<f64>() / recalls.len().max(1) as f64,
         );
