@@ -50,8 +50,14 @@ use rayon::prelude::*;
 pub const CELL_SIZE: usize = 512;
 /// Coarse cells whose fine cells are candidates for scanning.
 pub const COARSE_PROBES: usize = 6;
-/// Fine cells scanned per query.
+/// Fine cells examined per query, at most.
 pub const FINE_PROBES: usize = 160;
+/// Share of all fine cells examined per query, at most (but at least [`MIN_FINE_PROBES`]
+/// cells): an index of a few thousand shapes has few cells, of parts less alike, whose boxes
+/// skip little.
+pub const FINE_SHARE: f32 = 0.01;
+/// Fine cells examined per query whatever the share.
+pub const MIN_FINE_PROBES: usize = 12;
 /// Lloyd iterations of each k-means.
 const ITERATIONS: usize = 8;
 /// Sample points per centroid that k-means is fitted on.
@@ -68,12 +74,15 @@ pub const RERANK: usize = 2;
 /// How much of the inverted file a search reads: more is slower, and misses fewer true
 /// neighbours (the trade-off of `nprobe` in an IVF index). The default is
 /// [`FINE_PROBES`] and [`RERANK`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SearchEffort {
     /// Coarse cells whose fine cells are candidates for scanning (at least 1).
     pub coarse_probes: usize,
-    /// Fine cells scanned per query (at least 1).
+    /// Fine cells examined per query, at most (at least 1).
     pub fine_probes: usize,
+    /// Share of all fine cells examined per query, at most (but at least
+    /// [`MIN_FINE_PROBES`]); 1 for no limit.
+    pub fine_share: f32,
     /// Candidates by first bytes that are ranked again by whole codes, as a multiple of the
     /// neighbours asked for (at least 1).
     pub rerank: usize,
@@ -88,6 +97,7 @@ impl Default for SearchEffort {
         SearchEffort {
             coarse_probes: COARSE_PROBES,
             fine_probes: FINE_PROBES,
+            fine_share: FINE_SHARE,
             rerank: RERANK,
             settle: true,
         }
@@ -1145,7 +1155,10 @@ impl Ivf {
         let by_cell = |a: &(f32, usize, usize), b: &(f32, usize, usize)| {
             a.0.total_cmp(&b.0).then((a.1, a.2).cmp(&(b.1, b.2)))
         };
-        keep_smallest(&mut fine, effort.fine_probes.max(1), by_cell);
+        let cells: usize = self.ranges.iter().map(Vec::len).sum();
+        let share = (cells as f64 * f64::from(effort.fine_share.clamp(0.0, 1.0))).ceil() as usize;
+        let examined = effort.fine_probes.min(share.max(MIN_FINE_PROBES)).max(1);
+        keep_smallest(&mut fine, examined, by_cell);
         fine.sort_by(by_cell);
         let m = self.pq.bytes();
         let keep = k.saturating_mul(effort.rerank.max(1));
@@ -1337,6 +1350,7 @@ mod tests {
         let all = SearchEffort {
             coarse_probes: usize::MAX,
             fine_probes: usize::MAX,
+            fine_share: 1.0,
             rerank: n,
             settle: true,
         };
@@ -1379,6 +1393,7 @@ mod tests {
         let effort = SearchEffort {
             coarse_probes: usize::MAX,
             fine_probes: usize::MAX,
+            fine_share: 1.0,
             rerank: 2,
             settle: true,
         };

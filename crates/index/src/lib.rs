@@ -53,7 +53,10 @@ mod verify;
 mod writer;
 
 pub use error::{CorruptKind, IndexError, Result};
-pub use ivf::{FINE_PROBES, RERANK, SearchEffort, distance_sq as squared_distance_fast};
+pub use ivf::{
+    FINE_PROBES, FINE_SHARE, MIN_FINE_PROBES, RERANK, SearchEffort,
+    distance_sq as squared_distance_fast,
+};
 pub use reader::{
     ComponentMatch, EXACT_TREE_MAX, IVF_MIN_COMPONENTS, IndexReader, IndexStats, IndexedShape,
     SEARCH_CACHE_NAME, SearchMode, SearchSource, squared_distance,

@@ -14,7 +14,8 @@
 //! `cargo run --release -p keycomp-retrieval --example search_effort -- SHAPES INDEX [QUERIES]
 //! [SOURCES] [EFFORTS]` (EFFORTS: comma-separated `COARSExFINExRERANKxSETTLE`: coarse cells
 //! probed, fine cells examined, re-ranked candidates per neighbour, and whether the `k`-th
-//! place is settled by descriptors (1) or not (0); default `4x12x2x0,6x160x2x0,6x160x2x1`;
+//! place is settled by descriptors (1) or not (0), with no limit by share of the cells
+//! (`SearchEffort::fine_share` 1); default `4x12x2x0,6x160x2x0,6x160x2x1`;
 //! `SCALE_DIR=DIR` puts the grown index in DIR). With `GROWN=DIR`, the index at DIR (e.g. one
 //! grown by `query_scale`, kept) is searched instead of one grown here, SHAPES and SOURCES
 //! unused, and the true-distance column is left out (it reads every neighbour's record). With
@@ -76,6 +77,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 [coarse_probes, fine_probes, rerank, settle @ (0 | 1)] => Ok(SearchEffort {
                     coarse_probes,
                     fine_probes,
+                    // the cells asked for, whatever the index's size
+                    fine_share: 1.0,
                     rerank,
                     settle: settle == 1,
                 }),
