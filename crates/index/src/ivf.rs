@@ -12,7 +12,8 @@
 //! 65,536 levels spanning that value's range over the cell's members (128 bytes instead of 256
 //! for 64 values), kept as two arrays: the first bytes, the second bytes. A query ranks the
 //! coarse centroids, takes the fine cells of its [`COARSE_PROBES`] nearest coarse cells, and
-//! examines the [`FINE_PROBES`] fine cells with the nearest centroids, nearest first. A cell is
+//! examines the [`FINE_PROBES`] fine cells with the nearest centroids (at most [`FINE_SHARE`]
+//! of all fine cells, at least [`MIN_FINE_PROBES`]), nearest first. A cell is
 //! scanned unless its box (the points its codes can stand for: each value from its first
 //! level to its last) is farther from the query than the [`RERANK`]` × k`-th nearest code found
 //! so far: no code of such a cell could enter them (a bound in the manner of the
