@@ -24,10 +24,11 @@
 //! the few whose whole-code distances are too close to the `k`-th place to tell apart (within
 //! half a level per value) are settled by their descriptors ([`Settle`]). Near-duplicate
 //! parts fill many neighbouring cells, all of them needed for the `k` nearest; cells of other
-//! parts are far and are skipped by their boxes, so that examining many cells costs little
-//! more than scanning a few (BENCHMARKS.md, "A million shapes searched from memory"). Codes
-//! are read instead of the `n` descriptors, so that an index larger than memory is searched
-//! from the inverted file alone. A true neighbour is missed when it lies in a cell not
+//! parts are far and can be skipped by their boxes: examining 160 cells was measured at about a
+//! quarter more time than scanning 12 (BENCHMARKS.md, "A million shapes: cells skipped by
+//! their boxes").
+//! Codes are read instead of the `n` descriptors, so that an index larger than memory is
+//! searched from the inverted file alone. A true neighbour is missed when it lies in a cell not
 //! examined, or when rounding puts it beyond the re-ranked ones, so recall is measured, not
 //! guaranteed ([`SearchEffort`] trades speed for it).
 //!
@@ -1128,7 +1129,8 @@ impl Ivf {
     }
 
     /// The search behind [`Ivf::search`]: the `rerank × k` candidates ranked by whole codes
-    /// (fewer if fewer were found), nearest first, each with its distance as its code gives it
+    /// (fewer if fewer were found; the `k` nearest only when `effort.settle` is off, so that
+    /// no descriptor is read), nearest first, each with its distance as its code gives it
     /// and how far the square root of that may be from the true one (half a level per value
     /// of its cell, and float rounding), for [`Settle`] to settle the `k`-th place.
     pub(crate) fn search_bounded(
@@ -1156,7 +1158,8 @@ impl Ivf {
         let by_cell = |a: &(f32, usize, usize), b: &(f32, usize, usize)| {
             a.0.total_cmp(&b.0).then((a.1, a.2).cmp(&(b.1, b.2)))
         };
-        let cells: usize = self.ranges.iter().map(Vec::len).sum();
+        // the quantiser has `d` ranges per fine cell
+        let cells = self.pq.min.len() / d;
         let share = (cells as f64 * f64::from(effort.fine_share.clamp(0.0, 1.0))).ceil() as usize;
         let examined = effort.fine_probes.min(share.max(MIN_FINE_PROBES)).max(1);
         keep_smallest(&mut fine, examined, by_cell);
@@ -1211,6 +1214,9 @@ impl Ivf {
             f.1 = Sq::distance(&shifted[f.2 as usize], first, second);
         }
         found.sort_by(by);
+        if !effort.settle {
+            found.truncate(k);
+        }
         found
             .into_iter()
             .map(|(j, dist, probe)| {
@@ -1271,6 +1277,28 @@ mod tests {
         all.into_iter().take(k).map(|x| x.0).collect()
     }
 
+    /// `n` points of `d` values about `centres` random centres (point `i` about centre
+    /// `i mod centres`), each value moved by up to ±`spread`.
+    fn clustered(
+        rng: &mut ChaCha8Rng,
+        centres: usize,
+        n: usize,
+        d: usize,
+        spread: f32,
+    ) -> Vec<f32> {
+        let centres: Vec<Vec<f32>> = (0..centres)
+            .map(|_| (0..d).map(|_| rng.random_range(0.0..1.0)).collect())
+            .collect();
+        (0..n)
+            .flat_map(|i| {
+                let c = &centres[i % centres.len()];
+                c.iter()
+                    .map(|x| x + rng.random_range(-spread..spread))
+                    .collect::<Vec<f32>>()
+            })
+            .collect()
+    }
+
     #[test]
     fn distance_matches_the_plain_sum() {
         let a: Vec<f32> = (0..67).map(|i| i as f32 * 0.1).collect();
@@ -1285,18 +1313,8 @@ mod tests {
     fn finds_most_exact_neighbours_of_clustered_points() {
         let d = 16;
         let mut rng = ChaCha8Rng::seed_from_u64(5);
-        let centres: Vec<Vec<f32>> = (0..40)
-            .map(|_| (0..d).map(|_| rng.random_range(0.0..1.0)).collect())
-            .collect();
         let n = 20_000;
-        let points: Vec<f32> = (0..n)
-            .flat_map(|i| {
-                let c = &centres[i % centres.len()];
-                c.iter()
-                    .map(|x| x + rng.random_range(-0.05..0.05))
-                    .collect::<Vec<f32>>()
-            })
-            .collect();
+        let points = clustered(&mut rng, 40, n, d, 0.05);
         let flat = Flat { data: &points, d };
         let ivf = Ivf::build(&flat, d);
         let mut stored = ivf.items.clone();
@@ -1334,18 +1352,8 @@ mod tests {
     fn every_cell_examined_gives_the_exact_neighbours() {
         let d = 16;
         let mut rng = ChaCha8Rng::seed_from_u64(9);
-        let sources: Vec<Vec<f32>> = (0..6)
-            .map(|_| (0..d).map(|_| rng.random_range(0.0..1.0)).collect())
-            .collect();
         let n = 6_000;
-        let points: Vec<f32> = (0..n)
-            .flat_map(|i| {
-                let c = &sources[i % sources.len()];
-                c.iter()
-                    .map(|x| x + rng.random_range(-0.01..0.01))
-                    .collect::<Vec<f32>>()
-            })
-            .collect();
+        let points = clustered(&mut rng, 6, n, d, 0.01);
         let flat = Flat { data: &points, d };
         let ivf = Ivf::build(&flat, d);
         let all = SearchEffort {
@@ -1377,18 +1385,8 @@ mod tests {
     fn skipping_cells_by_their_boxes_loses_nothing() {
         let d = 16;
         let mut rng = ChaCha8Rng::seed_from_u64(11);
-        let sources: Vec<Vec<f32>> = (0..4)
-            .map(|_| (0..d).map(|_| rng.random_range(0.0..1.0)).collect())
-            .collect();
         let n = 20_000;
-        let points: Vec<f32> = (0..n)
-            .flat_map(|i| {
-                let c = &sources[i % sources.len()];
-                c.iter()
-                    .map(|x| x + rng.random_range(-0.01..0.01))
-                    .collect::<Vec<f32>>()
-            })
-            .collect();
+        let points = clustered(&mut rng, 4, n, d, 0.01);
         let flat = Flat { data: &points, d };
         let ivf = Ivf::build(&flat, d);
         let effort = SearchEffort {

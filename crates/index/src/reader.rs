@@ -879,11 +879,7 @@ impl<const D: usize> IndexReader<D> {
     ///
     /// Errors with [`IndexError::InvalidQuery`] if `query` holds a NaN or infinity.
     pub fn nearest_components(&self, query: &[f32; D], k: usize) -> Result<Vec<ComponentMatch>> {
-        if let Some(i) = query.iter().position(|v| !v.is_finite()) {
-            return Err(IndexError::InvalidQuery {
-                reason: format!("descriptor value {i} is not finite"),
-            });
-        }
+        check_finite(std::slice::from_ref(query))?;
         let Some(qty) = NonZero::new(k) else {
             return Ok(Vec::new());
         };
@@ -921,35 +917,16 @@ impl<const D: usize> IndexReader<D> {
         queries: &[[f32; D]],
         k: usize,
     ) -> Result<Vec<Vec<ComponentMatch>>> {
+        check_finite(queries)?;
         let search = self.search();
-        if search.ivf.is_none() && search.tree.is_none() {
-            if let Some(i) = queries
-                .iter()
-                .flat_map(|q| q.iter())
-                .position(|v| !v.is_finite())
-            {
-                return Err(IndexError::InvalidQuery {
-                    reason: format!("descriptor value {} is not finite", i % D.max(1)),
-                });
-            }
-            return Ok(self.scan(queries, k));
+        match (&search.ivf, &search.tree) {
+            (Some(ivf), _) => Ok(self.ivf_nearest(ivf, queries, k)),
+            (None, None) => Ok(self.scan(queries, k)),
+            (None, Some(_)) => queries
+                .par_iter()
+                .map(|q| self.nearest_components(q, k))
+                .collect(),
         }
-        if let Some(ivf) = &search.ivf {
-            if let Some(i) = queries
-                .iter()
-                .flat_map(|q| q.iter())
-                .position(|v| !v.is_finite())
-            {
-                return Err(IndexError::InvalidQuery {
-                    reason: format!("descriptor value {} is not finite", i % D.max(1)),
-                });
-            }
-            return Ok(self.ivf_nearest(ivf, queries, k));
-        }
-        queries
-            .par_iter()
-            .map(|q| self.nearest_components(q, k))
-            .collect()
     }
 
     /// The approximate search of `queries` (finite), in parallel: distances as the codes give
@@ -959,14 +936,7 @@ impl<const D: usize> IndexReader<D> {
     fn ivf_nearest(&self, ivf: &Ivf, queries: &[[f32; D]], k: usize) -> Vec<Vec<ComponentMatch>> {
         let found: Vec<Vec<(u32, f32, f32)>> = queries
             .par_iter()
-            .map(|q| {
-                let mut f = ivf.search_bounded(q, k, self.effort);
-                if !self.effort.settle {
-                    // the k nearest by code, no descriptor read
-                    f.truncate(k);
-                }
-                f
-            })
+            .map(|q| ivf.search_bounded(q, k, self.effort))
             .collect();
         let settled: Vec<crate::ivf::Settle> = found
             .iter()
@@ -1135,6 +1105,16 @@ impl<const D: usize> IndexReader<D> {
 /// Squared norm of `v`: its vectorised squared distance to the origin.
 fn norm_sq<const D: usize>(v: &[f32]) -> f32 {
     crate::ivf::distance_sq(v, &[0.0; D])
+}
+
+/// [`IndexError::InvalidQuery`] naming the first value of `queries` that is NaN or infinite.
+fn check_finite<const D: usize>(queries: &[[f32; D]]) -> Result<()> {
+    match queries.iter().flatten().position(|v| !v.is_finite()) {
+        Some(i) => Err(IndexError::InvalidQuery {
+            reason: format!("descriptor value {} is not finite", i % D.max(1)),
+        }),
+        None => Ok(()),
+    }
 }
 
 fn sort_matches(v: &mut [ComponentMatch]) {

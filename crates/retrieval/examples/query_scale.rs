@@ -32,7 +32,7 @@
 use std::time::Instant;
 
 mod common;
-use common::{grown_copy, median, resident_mb};
+use common::{grown_copy, median, perturbed_query, resident_mb, view};
 use keycomp_describe::DIM;
 use keycomp_index::{IndexReader, IndexWriter, SearchMode, synthetic};
 use keycomp_retrieval::{
@@ -40,17 +40,6 @@ use keycomp_retrieval::{
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-
-/// A query's matching view (no area check: the copies' areas are not perturbed).
-fn view<'a>(descriptors: &'a [[f32; DIM]], layout: &'a [f32]) -> ShapeView<'a> {
-    ShapeView {
-        descriptors,
-        layout,
-        areas: &[],
-        centres: &[],
-        sample: &[],
-    }
-}
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let sizes: Vec<u64> = std::env::args()
@@ -169,21 +158,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let mut rng = ChaCha8Rng::seed_from_u64(1);
         let make_query = |rng: &mut ChaCha8Rng| {
             let id = ids[rng.random_range(0..ids.len())];
-            let rec = reader.get(id).ok().flatten().map(|r| (*r).clone());
-            rec.map(|rec| {
-                let descs: Vec<[f32; DIM]> = rec
-                    .components
-                    .iter()
-                    .map(|c| {
-                        let mut d = c.descriptor;
-                        for x in &mut d {
-                            *x += rng.random_range(-0.01..0.01);
-                        }
-                        d
-                    })
-                    .collect();
-                (descs, rec.layout)
-            })
+            perturbed_query(&reader, id, rng).ok().flatten()
         };
         let params = MatchParams::default();
         exact.prepare_search();

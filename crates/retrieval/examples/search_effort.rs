@@ -27,25 +27,14 @@
 use std::time::Instant;
 
 mod common;
-use common::{grown_copy, median};
+use common::{grown_copy, median, perturbed_query, view};
 use keycomp_describe::DIM;
 use keycomp_index::{
     ComponentMatch, IndexReader, IndexWriter, SearchEffort, SearchMode, ShapeId, ShapeRecord,
 };
-use keycomp_retrieval::{CANDIDATES_PER_COMPONENT, MatchParams, ShapeView, rank_neighbours};
+use keycomp_retrieval::{CANDIDATES_PER_COMPONENT, MatchParams, rank_neighbours};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-
-/// A query's matching view (no area check: the copies' areas are not perturbed).
-fn view<'a>(descriptors: &'a [[f32; DIM]], layout: &'a [f32]) -> ShapeView<'a> {
-    ShapeView {
-        descriptors,
-        layout,
-        areas: &[],
-        centres: &[],
-        sample: &[],
-    }
-}
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
@@ -90,12 +79,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .collect::<Result<_, _>>()?;
 
     let grown = std::env::var_os("GROWN").map(std::path::PathBuf::from);
-    let made = match std::env::var_os("SCALE_DIR") {
-        Some(parent) => tempfile::tempdir_in(parent)?,
-        None => tempfile::tempdir()?,
+    // the index searched, and the folder grown here (removed at the end)
+    let (dir, made) = match &grown {
+        Some(g) => (g.clone(), None),
+        None => {
+            let t = match std::env::var_os("SCALE_DIR") {
+                Some(parent) => tempfile::tempdir_in(parent)?,
+                None => tempfile::tempdir()?,
+            };
+            (t.path().to_path_buf(), Some(t))
+        }
     };
-    let dir = grown.clone().unwrap_or_else(|| made.path().to_path_buf());
-    if grown.is_none() {
+    if made.is_some() {
         let mut jitter = ChaCha8Rng::seed_from_u64(2);
         let mut w = IndexWriter::<DIM>::create_or_open(&dir)?;
         let mut i = 0;
@@ -122,19 +117,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut asked: Vec<(Vec<[f32; DIM]>, Vec<f32>)> = Vec::new();
     for _ in 0..queries {
         let id = ids[rng.random_range(0..ids.len())];
-        let rec = exact.get(id)?.ok_or("a listed shape has no record")?;
-        let descs = rec
-            .components
-            .iter()
-            .map(|c| {
-                let mut d = c.descriptor;
-                for x in &mut d {
-                    *x += rng.random_range(-0.01..0.01);
-                }
-                d
-            })
-            .collect();
-        asked.push((descs, rec.layout.clone()));
+        asked.push(perturbed_query(&exact, id, &mut rng)?.ok_or("a listed shape has no record")?);
     }
     let params = MatchParams::default();
     let top = |v: &[keycomp_retrieval::Ranked]| v.iter().map(|r| r.id).collect::<Vec<_>>();

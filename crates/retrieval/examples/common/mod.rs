@@ -1,9 +1,11 @@
 #![allow(dead_code)] // each example uses a part of this module
-//! What this crate's scale examples (`query_scale`, `ann_compare`) share: the grown copies of
-//! real records, resident memory, medians.
+//! What this crate's scale examples (`query_scale`, `ann_compare`, `search_effort`) share: the
+//! grown copies of real records, the queries made of indexed records, resident memory,
+//! medians.
 
 use keycomp_describe::DIM;
-use keycomp_index::ShapeRecord;
+use keycomp_index::{IndexReader, ShapeId, ShapeRecord};
+use keycomp_retrieval::ShapeView;
 use rand::Rng;
 
 /// Copy `i` of the records `src` (record `i mod len`), with its own path and content hash and
@@ -35,4 +37,43 @@ pub fn resident_mb() -> Option<f64> {
 pub fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
+}
+
+/// A query: its part descriptors and its layout.
+pub type Query = (Vec<[f32; DIM]>, Vec<f32>);
+
+/// A query made of the indexed shape `id`'s record: its descriptors with every value moved by
+/// up to ±0.01 (draws from `rng`, part after part), and its layout. `None` if `id` has no
+/// record.
+pub fn perturbed_query(
+    reader: &IndexReader<DIM>,
+    id: ShapeId,
+    rng: &mut impl Rng,
+) -> Result<Option<Query>, keycomp_index::IndexError> {
+    let Some(rec) = reader.get(id)? else {
+        return Ok(None);
+    };
+    let descs = rec
+        .components
+        .iter()
+        .map(|c| {
+            let mut d = c.descriptor;
+            for x in &mut d {
+                *x += rng.random_range(-0.01..0.01);
+            }
+            d
+        })
+        .collect();
+    Ok(Some((descs, rec.layout.clone())))
+}
+
+/// A query's matching view (no area check: the copies' areas are not perturbed).
+pub fn view<'a>(descriptors: &'a [[f32; DIM]], layout: &'a [f32]) -> ShapeView<'a> {
+    ShapeView {
+        descriptors,
+        layout,
+        areas: &[],
+        centres: &[],
+        sample: &[],
+    }
 }
