@@ -12,17 +12,20 @@
 //! copies each; so are 20 sources at 100,000). Queries are indexed shapes' parts moved alike.
 //!
 //! `cargo run --release -p keycomp-retrieval --example search_effort -- SHAPES INDEX [QUERIES]
-//! [SOURCES] [EFFORTS]` (EFFORTS: comma-separated `COARSExFINExRERANKxSETTLE`: coarse cells
-//! probed, fine cells examined, re-ranked candidates per neighbour, and whether the `k`-th
-//! place is settled by descriptors (1) or not (0), with no limit by share of the cells
-//! (`SearchEffort::fine_share` 1); default `4x12x2x0,6x160x2x0,6x160x2x1`;
+//! [SOURCES] [EFFORTS]` (EFFORTS: comma-separated `COARSExFINExRERANKxSETTLExLINKED`: coarse
+//! cells probed, fine cells examined, re-ranked candidates per neighbour, whether the `k`-th
+//! place is settled by descriptors (1) or not (0), and fine cells reached through links, with
+//! no limit by share of the cells (`SearchEffort::fine_share` 1); default
+//! `6x160x2x1x0,6x160x2x1x160`;
 //! `SCALE_DIR=DIR` puts the grown index in DIR). With `GROWN=DIR`, the index at DIR (e.g. one
 //! grown by `query_scale`, kept) is searched instead of one grown here, SHAPES and SOURCES
 //! unused, and the true-distance column is left out (it reads every neighbour's record). With
 //! `DROP_CACHES=1` (Linux, as root), the system's page cache is dropped before each effort's
 //! queries, so that the parts of the index they read come from the disk, as for a process's
-//! first queries on an index larger than memory. Prints a markdown table; medians over the
-//! queries.
+//! first queries on an index larger than memory. With `TRUTH=FILE`, the exact results are read
+//! from FILE when it holds them for as many shapes and queries, else computed and written there
+//! (they take about as long as `query_scale`'s exact search). Prints a markdown table; medians
+//! over the queries.
 
 use std::time::Instant;
 
@@ -55,7 +58,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let efforts: Vec<SearchEffort> = args
         .get(5)
-        .map_or("4x12x2x0,6x160x2x0,6x160x2x1", String::as_str)
+        .map_or("6x160x2x1x0,6x160x2x1x160", String::as_str)
         .split(',')
         .map(|e| {
             let v: Vec<usize> = e
@@ -63,16 +66,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 .map(|v| v.trim().parse())
                 .collect::<Result<_, _>>()?;
             match v[..] {
-                [coarse_probes, fine_probes, rerank, settle @ (0 | 1)] => Ok(SearchEffort {
-                    coarse_probes,
-                    fine_probes,
-                    // the cells asked for, whatever the index's size
-                    fine_share: 1.0,
-                    rerank,
-                    settle: settle == 1,
-                }),
+                [coarse_probes, fine_probes, rerank, settle @ (0 | 1), linked] => {
+                    Ok(SearchEffort {
+                        coarse_probes,
+                        fine_probes,
+                        // the cells asked for, whatever the index's size
+                        fine_share: 1.0,
+                        rerank,
+                        settle: settle == 1,
+                        linked,
+                    })
+                }
                 _ => Err::<_, Box<dyn std::error::Error>>(
-                    "an effort is COARSExFINExRERANKxSETTLE (SETTLE: 0 or 1)".into(),
+                    "an effort is COARSExFINExRERANKxSETTLExLINKED (SETTLE: 0 or 1)".into(),
                 ),
             }
         })
@@ -121,20 +127,30 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let params = MatchParams::default();
     let top = |v: &[keycomp_retrieval::Ranked]| v.iter().map(|r| r.id).collect::<Vec<_>>();
-    // the exact neighbours of every query part in one batch, and the exact rankings
-    let parts: Vec<[f32; DIM]> = asked.iter().flat_map(|q| q.0.iter().copied()).collect();
-    let mut all = exact.nearest_components_batch(&parts, CANDIDATES_PER_COMPONENT)?;
-    let mut truth = Vec::new();
-    for (d, l) in &asked {
-        let rest = all.split_off(d.len());
-        let ranked = rank_neighbours(&exact, view(d, l), &all, 11, &params)?;
-        // the gap between the 10th and the 11th score: how firm the exact top 10 is
-        let gap = match (ranked.get(9), ranked.get(10)) {
-            (Some(a), Some(b)) => a.result.score - b.result.score,
-            _ => f64::INFINITY,
-        };
-        truth.push((top(&ranked[..ranked.len().min(10)]), all, gap));
-        all = rest;
+    // the exact neighbours of every query part in one batch, and the exact rankings (read
+    // from TRUTH when it was written for this many shapes and queries)
+    let saved = std::env::var_os("TRUTH").map(std::path::PathBuf::from);
+    let mut truth = match saved.as_deref().filter(|p| p.exists()) {
+        Some(p) => read_truth(p, ids.len(), queries)?,
+        None => Vec::new(),
+    };
+    if truth.is_empty() {
+        let parts: Vec<[f32; DIM]> = asked.iter().flat_map(|q| q.0.iter().copied()).collect();
+        let mut all = exact.nearest_components_batch(&parts, CANDIDATES_PER_COMPONENT)?;
+        for (d, l) in &asked {
+            let rest = all.split_off(d.len());
+            let ranked = rank_neighbours(&exact, view(d, l), &all, 11, &params)?;
+            // the gap between the 10th and the 11th score: how firm the exact top 10 is
+            let gap = match (ranked.get(9), ranked.get(10)) {
+                (Some(a), Some(b)) => a.result.score - b.result.score,
+                _ => f64::INFINITY,
+            };
+            truth.push((top(&ranked[..ranked.len().min(10)]), all, gap));
+            all = rest;
+        }
+        if let Some(p) = &saved {
+            write_truth(p, ids.len(), queries, &truth)?;
+        }
     }
     let gaps: Vec<f64> = truth.iter().map(|t| t.2).collect();
     eprintln!(
@@ -144,9 +160,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
 
     println!(
-        "| coarse cells probed | fine cells examined | re-ranked (× k) | k-th place settled by descriptors | query's parts searched (ms) | recall of the {CANDIDATES_PER_COMPONENT} nearest | top 10 as exact (same order / same set) | the same neighbours at true distances: top 10 as exact |"
+        "| coarse cells probed | fine cells examined | fine cells reached through links, at most | re-ranked (× k) | k-th place settled by descriptors | query's parts searched (ms) | recall of the {CANDIDATES_PER_COMPONENT} nearest | top 10 as exact (same order / same set) | the same neighbours at true distances: top 10 as exact |"
     );
-    println!("|---:|---:|---:|---|---:|---:|---:|---:|");
+    println!("|---:|---:|---:|---:|---|---:|---:|---:|---:|");
     for effort in efforts {
         let reader = open(effort)?;
         reader.prepare_search();
@@ -199,9 +215,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             format!("{same_true} of {queries}")
         };
         println!(
-            "| {} | {} | {} | {} | {:.1} | {:.4} | {same} / {same_set} of {queries} | {at_true} |",
+            "| {} | {} | {} | {} | {} | {:.1} | {:.4} | {same} / {same_set} of {queries} | {at_true} |",
             effort.coarse_probes,
             effort.fine_probes,
+            effort.linked,
             effort.rerank,
             if effort.settle { "yes" } else { "no" },
             median(times),
@@ -209,4 +226,77 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         );
     }
     Ok(())
+}
+
+/// A query's exact top 10, its parts' exact neighbours, and the gap between its 10th and 11th
+/// scores.
+type Truth = (Vec<ShapeId>, Vec<Vec<ComponentMatch>>, f64);
+
+/// Writes the exact results of `queries` queries on an index of `shapes` shapes to `path`
+/// (JSON).
+fn write_truth(
+    path: &std::path::Path,
+    shapes: usize,
+    queries: usize,
+    truth: &[Truth],
+) -> Result<(), Box<dyn std::error::Error>> {
+    let rows: Vec<serde_json::Value> = truth
+        .iter()
+        .map(|(top, nb, gap)| {
+            let nb: Vec<Vec<(u64, usize, f32)>> = nb
+                .iter()
+                .map(|n| {
+                    n.iter()
+                        .map(|m| (m.shape.0, m.component, m.distance_sq))
+                        .collect()
+                })
+                .collect();
+            let top: Vec<u64> = top.iter().map(|t| t.0).collect();
+            serde_json::json!({ "top": top, "neighbours": nb, "gap": gap.min(f64::MAX) })
+        })
+        .collect();
+    let v = serde_json::json!({ "shapes": shapes, "queries": queries, "truth": rows });
+    std::fs::write(path, serde_json::to_vec(&v)?)?;
+    Ok(())
+}
+
+/// The exact results [`write_truth`] wrote to `path`, or none when they were written for
+/// another index size or query count.
+fn read_truth(
+    path: &std::path::Path,
+    shapes: usize,
+    queries: usize,
+) -> Result<Vec<Truth>, Box<dyn std::error::Error>> {
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(path)?)?;
+    if v["shapes"] != shapes || v["queries"] != queries {
+        eprintln!(
+            "{}: written for another index or query count",
+            path.display()
+        );
+        return Ok(Vec::new());
+    }
+    let rows = v["truth"].as_array().ok_or("no truth")?;
+    let mut out = Vec::new();
+    for r in rows {
+        let top: Vec<u64> = serde_json::from_value(r["top"].clone())?;
+        let nb: Vec<Vec<(u64, usize, f32)>> = serde_json::from_value(r["neighbours"].clone())?;
+        let nb = nb
+            .into_iter()
+            .map(|n| {
+                n.into_iter()
+                    .map(|(shape, component, distance_sq)| ComponentMatch {
+                        shape: ShapeId(shape),
+                        component,
+                        distance_sq,
+                    })
+                    .collect()
+            })
+            .collect();
+        out.push((
+            top.into_iter().map(ShapeId).collect(),
+            nb,
+            r["gap"].as_f64().ok_or("no gap")?,
+        ));
+    }
+    Ok(out)
 }
