@@ -12,18 +12,17 @@
 //! 65,536 levels spanning that value's range over the cell's members (128 bytes instead of 256
 //! for 64 values), kept as two arrays: the first bytes, the second bytes. A query ranks the
 //! coarse centroids, takes the fine cells of its [`COARSE_PROBES`] nearest coarse cells, and
-//! examines the [`FINE_PROBES`] fine cells with the nearest centroids (at most [`FINE_SHARE`]
-//! of all fine cells, at least [`MIN_FINE_PROBES`]), nearest first. A cell is
-//! scanned unless its box (the points its codes can stand for: each value from its first
-//! level to its last) is farther from the query than the [`RERANK`]` × k`-th nearest code found
-//! so far: no code of such a cell could enter them (a bound in the manner of the
-//! branch-and-bound search of K. Fukunaga and P. M. Narendra, "A branch and bound algorithm
-//! for computing k-nearest neighbors", IEEE Trans. Computers C-24(7), 1975). Then the cells
-//! linked to scanned ones ([`Links`]: each fine cell to the fine cells with the nearest
-//! centroids, whatever their coarse cells) are examined, nearest box first, as long as their
-//! boxes are near enough, at most [`LINKED`] of them: a cloud of near-duplicate parts split
-//! between coarse cells is followed into coarse cells whose centroids rank far from the query
-//! (each coarse cell's centroid is the mean of many sources' parts). The scan ranks
+//! examines the [`FINE_PROBES`] of them with the nearest boxes (at most [`FINE_SHARE`] of all
+//! fine cells, at least [`MIN_FINE_PROBES`]), nearest first. A cell's box holds the points its
+//! codes can stand for (each value from its first level to its last), so its distance to the
+//! query is no more than any of its codes': the cells are scanned in that order until a box is
+//! farther than the [`RERANK`]` × k`-th nearest code found so far, when no code of it or of
+//! the cells after it could enter them (the branch-and-bound search of K. Fukunaga and
+//! P. M. Narendra, "A branch and bound algorithm for computing k-nearest neighbors", IEEE
+//! Trans. Computers C-24(7), 1975, with boxes for its bounds). Ranked by their centroids
+//! instead, the cells examined missed some of the nearest codes at a million shapes: a cell's
+//! centroid is the mean of its members, its box bounds every one of them (BENCHMARKS.md,
+//! "A million shapes: fine cells ranked by their boxes"). The scan ranks
 //! codes by the levels their first bytes stand for (asymmetric distances, Jégou et al.
 //! Section III.A); the [`RERANK`]` × k` nearest are ranked again by their whole codes, and
 //! the few whose whole-code distances are too close to the `k`-th place to tell apart (within
@@ -31,7 +30,7 @@
 //! parts fill many neighbouring cells, all of them needed for the `k` nearest; cells of other
 //! parts are far and can be skipped by their boxes: examining 160 cells was measured at about a
 //! quarter more time than scanning 12 (BENCHMARKS.md, "A million shapes: cells skipped by
-//! their boxes").
+//! their boxes", with the cells ranked by their centroids).
 //! Codes are read instead of the `n` descriptors, so that an index larger than memory is
 //! searched from the inverted file alone. A true neighbour is missed when it lies in a cell not
 //! examined, or when rounding puts it beyond the re-ranked ones, so recall is measured, not
@@ -56,7 +55,7 @@ use rayon::prelude::*;
 /// Descriptors per fine cell aimed at.
 pub const CELL_SIZE: usize = 512;
 /// Coarse cells whose fine cells are candidates for scanning.
-pub const COARSE_PROBES: usize = 6;
+pub const COARSE_PROBES: usize = 4;
 /// Fine cells examined per query, at most.
 pub const FINE_PROBES: usize = 160;
 /// Share of all fine cells examined per query, at most (but at least [`MIN_FINE_PROBES`]
@@ -77,17 +76,10 @@ const RUN: usize = 256;
 /// Candidates ranked by the first bytes of their codes that are ranked again by whole codes,
 /// as a multiple of the neighbours asked for.
 pub const RERANK: usize = 2;
-/// Fine cells reached through the links of scanned cells, at most, per query (see
-/// [`SearchEffort::linked`]).
-pub const LINKED: usize = 160;
-/// Nearest fine cells each fine cell is linked to.
-const LINKS: usize = 16;
-/// Coarse cells, nearest a fine centroid, whose fine cells are candidates for its links.
-const LINK_COARSE: usize = 32;
 
 /// How much of the inverted file a search reads: more is slower, and misses fewer true
 /// neighbours (the trade-off of `nprobe` in an IVF index). The default is
-/// [`COARSE_PROBES`], [`FINE_PROBES`], [`FINE_SHARE`], [`RERANK`], settling, and [`LINKED`].
+/// [`FINE_PROBES`] and [`RERANK`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SearchEffort {
     /// Coarse cells whose fine cells are candidates for scanning (at least 1).
@@ -104,10 +96,6 @@ pub struct SearchEffort {
     /// descriptors (a few per search; without, no descriptor is read, and two parts whose
     /// distances differ by less than the codes' rounding may change places at the `k`-th).
     pub settle: bool,
-    /// Fine cells reached through the links of scanned cells (each fine cell is linked to the
-    /// nearest fine centroids, whatever their coarse cells) that are examined after the
-    /// probed ones, at most; 0 for none.
-    pub linked: usize,
 }
 
 impl Default for SearchEffort {
@@ -118,13 +106,12 @@ impl Default for SearchEffort {
             fine_share: FINE_SHARE,
             rerank: RERANK,
             settle: true,
-            linked: LINKED,
         }
     }
 }
 /// The first field of a search cache's payload: caches whose payload is laid out otherwise
 /// (an earlier layout of the same format version) are rebuilt instead of misread.
-const CACHE_TAG: u64 = u64::from_le_bytes(*b"KCIVF17\0");
+const CACHE_TAG: u64 = u64::from_le_bytes(*b"KCIVF16\0");
 
 /// Squared Euclidean distance over eight partial sums, so that the loop vectorises (the
 /// summation order differs from [`crate::squared_distance`]: results agree to rounding).
@@ -291,7 +278,6 @@ struct Head<'a> {
     coarse: &'a [f32],
     fine: &'a [Vec<f32>],
     pq: &'a Sq,
-    links: &'a Links,
 }
 
 /// [`Head`] as read.
@@ -304,7 +290,6 @@ struct HeadOwned {
     coarse: Vec<f32>,
     fine: Vec<Vec<f32>>,
     pq: Sq,
-    links: Links,
 }
 
 /// What a cache file holds, as one value (the tests craft caches with it).
@@ -320,7 +305,6 @@ struct Stored {
     coarse: Vec<f32>,
     fine: Vec<Vec<f32>>,
     pq: Sq,
-    links: Links,
     segments: Vec<SegmentCells>,
 }
 
@@ -455,108 +439,8 @@ pub(crate) struct Ivf {
     codes: Vec<u8>,
     /// The second bytes of the same codes, laid out alike.
     refine: Vec<u8>,
-    /// Each fine cell's nearest fine cells.
-    links: Links,
     /// Items the centroids were fitted on.
     trained: usize,
-}
-
-/// Each global fine cell's links: the [`LINKS`] fine cells with the nearest centroids among
-/// those of the [`LINK_COARSE`] coarse cells nearest its own centroid, then (at most
-/// [`LINKS`] more) the cells that link it, so that a search can follow near-duplicate parts
-/// split between coarse cells whose centroids rank far from the query (the neighbour graph
-/// over the quantiser's centroids of an IVF index, as in the IVF-HNSW index of D. Baranchuk,
-/// A. Babenko and Y. Malkov, "Revisiting the inverted indices for billion-scale approximate
-/// nearest neighbors", ECCV 2018).
-#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
-pub(crate) struct Links {
-    /// Per fine cell, its first entry in `to`; one more entry closes the last.
-    starts: Vec<u32>,
-    /// The linked cells, nearest first (the forward links, then the backward ones).
-    to: Vec<u32>,
-}
-
-impl Links {
-    /// The links of the fine cells of `fine` (per coarse cell, flat; global numbers coarse cell
-    /// by coarse cell), the coarse centroids `coarse` choosing the candidates.
-    fn build(d: usize, coarse: &[f32], fine: &[Vec<f32>]) -> Links {
-        let mut bases = Vec::with_capacity(fine.len());
-        let mut cells = 0usize;
-        for f in fine {
-            bases.push(cells);
-            cells += f.len() / d;
-        }
-        let by = |a: &(f32, u32), b: &(f32, u32)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
-        let all: Vec<(usize, usize)> = fine
-            .iter()
-            .enumerate()
-            .flat_map(|(ci, f)| (0..f.len() / d).map(move |fi| (ci, fi)))
-            .collect();
-        let forward: Vec<Vec<(f32, u32)>> = all
-            .par_iter()
-            .map(|&(ci, fi)| {
-                let p = &fine[ci][fi * d..(fi + 1) * d];
-                let mut near: Vec<(f32, u32)> = coarse
-                    .chunks_exact(d)
-                    .enumerate()
-                    .filter(|&(i, _)| !fine[i].is_empty())
-                    .map(|(i, c)| (distance_sq(c, p), i as u32))
-                    .collect();
-                keep_smallest(&mut near, LINK_COARSE, by);
-                let me = bases[ci] + fi;
-                let mut found = Vec::new();
-                for &(_, cj) in &near {
-                    let cj = cj as usize;
-                    for (fj, c) in fine[cj].chunks_exact(d).enumerate() {
-                        let g = bases[cj] + fj;
-                        if g != me {
-                            found.push((distance_sq(c, p), g as u32));
-                        }
-                    }
-                }
-                keep_smallest(&mut found, LINKS, by);
-                found.sort_by(by);
-                found
-            })
-            .collect();
-        let mut backward: Vec<Vec<(f32, u32)>> = vec![Vec::new(); cells];
-        for (g, out) in forward.iter().enumerate() {
-            for &(dist, h) in out {
-                backward[h as usize].push((dist, g as u32));
-            }
-        }
-        let mut links = Links {
-            starts: Vec::with_capacity(cells + 1),
-            to: Vec::new(),
-        };
-        links.starts.push(0);
-        for (out, mut back) in forward.into_iter().zip(backward) {
-            back.retain(|b| !out.iter().any(|o| o.1 == b.1));
-            keep_smallest(&mut back, LINKS, by);
-            back.sort_by(by);
-            links.to.extend(out.iter().chain(&back).map(|l| l.1));
-            links.starts.push(links.to.len() as u32);
-        }
-        links
-    }
-
-    /// Whether these are links of `cells` fine cells (a damaged cache's may not be).
-    fn fit(&self, cells: usize) -> bool {
-        self.starts.len() == cells + 1
-            && self.starts.first() == Some(&0)
-            && self.starts.windows(2).all(|w| w[0] <= w[1])
-            && self
-                .starts
-                .last()
-                .is_some_and(|&e| e as usize == self.to.len())
-            && self.to.iter().all(|&g| (g as usize) < cells)
-    }
-
-    /// The cells fine cell `g` links to.
-    fn of(&self, g: usize) -> &[u32] {
-        let (a, b) = (self.starts[g] as usize, self.starts[g + 1] as usize);
-        &self.to[a..b]
-    }
 }
 
 /// A scalar quantiser of residuals, one per fine cell: value `i` of a residual in cell `g` is
@@ -712,15 +596,27 @@ impl Sq {
     fn box_distance(&self, g: usize, r: &[f32]) -> f32 {
         let (min, step) = self.cell(g);
         let top = (LEVELS - 1) as f32;
-        r.iter()
-            .zip(min)
-            .zip(step)
-            .map(|((v, lo), s)| {
-                let hi = lo + s * top;
-                let out = (lo - v).max(v - hi).max(0.0);
-                out * out
-            })
-            .sum()
+        // how far `v` lies outside the levels from `lo` by `s`, squared (comparisons rather
+        // than `f32::max`, and eight partial sums, so that the loop vectorises)
+        let out = |v: f32, lo: f32, s: f32| {
+            let (below, above) = (lo - v, v - (lo + s * top));
+            let o = if below > above { below } else { above };
+            let o = if o > 0.0 { o } else { 0.0 };
+            o * o
+        };
+        let mut acc = [0f32; 8];
+        let chunks = r
+            .chunks_exact(8)
+            .zip(min.chunks_exact(8))
+            .zip(step.chunks_exact(8));
+        for ((v, lo), s) in chunks {
+            for l in 0..8 {
+                acc[l] += out(v[l], lo[l], s[l]);
+            }
+        }
+        let done = r.len() / 8 * 8;
+        let tail: f32 = (done..r.len()).map(|i| out(r[i], min[i], step[i])).sum();
+        acc.iter().sum::<f32>() + tail
     }
 
     /// Squared distance between a residual and the one a whole code stands for.
@@ -732,67 +628,6 @@ impl Sq {
             sum += d * d;
         }
         sum
-    }
-}
-
-/// The scan of a search's cells (see [`Ivf::search_bounded`]): the nearest codes found so far
-/// by first bytes.
-struct Scan<'a> {
-    ivf: &'a Ivf,
-    q: &'a [f32],
-    /// Codes kept.
-    keep: usize,
-    /// (place in cell order, distance by first bytes, the scanned cell's place in `shifted`).
-    found: Vec<(u32, f32, u32)>,
-    /// The query prepared for each scanned cell.
-    shifted: Vec<Shifted<'a>>,
-    /// The largest distance among the `keep` nearest found so far, once there are `keep`.
-    threshold: f32,
-    residual: Vec<f32>,
-}
-
-impl Scan<'_> {
-    /// Puts the query's residual from the centroid of fine cell `fi` of coarse cell `ci` in
-    /// `residual`.
-    fn residual(&mut self, ci: usize, fi: usize) {
-        let d = self.ivf.d;
-        let c = &self.ivf.fine[ci][fi * d..(fi + 1) * d];
-        for ((r, q), c) in self.residual.iter_mut().zip(self.q).zip(c) {
-            *r = q - c;
-        }
-    }
-
-    /// The squared distance from the query to the box of cell `g` (fine cell `fi` of coarse
-    /// cell `ci`): every code of the cell stands for a point of its box, so a cell whose box
-    /// is farther than the `keep`-th nearest found holds none nearer.
-    fn bound(&mut self, g: usize, ci: usize, fi: usize) -> f32 {
-        self.residual(ci, fi);
-        self.ivf.pq.box_distance(g, &self.residual)
-    }
-
-    /// Scans cell `g` (fine cell `fi` of coarse cell `ci`).
-    fn cell(&mut self, g: usize, ci: usize, fi: usize) {
-        self.residual(ci, fi);
-        let ivf = self.ivf;
-        let prepared = ivf.pq.shift(g, &self.residual);
-        let probe = self.shifted.len() as u32;
-        let m = ivf.pq.bytes();
-        let (start, end) = ivf.ranges[ci][fi];
-        for j in start as usize..end as usize {
-            let dist = Sq::coarse_distance(&prepared, &ivf.codes[j * m..(j + 1) * m]);
-            if dist <= self.threshold {
-                self.found.push((j as u32, dist, probe));
-            }
-        }
-        self.shifted.push(prepared);
-        if self.found.len() >= self.keep {
-            keep_smallest(&mut self.found, self.keep, |a, b| ivf.by_place(a, b));
-            self.threshold = self
-                .found
-                .iter()
-                .map(|f| f.1)
-                .fold(f32::NEG_INFINITY, f32::max);
-        }
     }
 }
 
@@ -840,9 +675,24 @@ impl Ivf {
             })
             .collect();
         drop(top);
+        Ivf::with_cells(points, d, coarse, fine, &cell)
+    }
+
+    /// The inverted file of `points` (`d` values each) with these centroids, item `i` in
+    /// global fine cell `cell[i]` (fine cells numbered coarse cell by coarse cell, each in
+    /// range): the quantiser fitted to the cells' residuals, and every item's code.
+    fn with_cells(
+        points: &impl Points,
+        d: usize,
+        coarse: Vec<f32>,
+        fine: Vec<Vec<f32>>,
+        cell: &[u32],
+    ) -> Ivf {
+        let n = points.len();
+        let point = |i: u32| points.point(i);
         // the quantiser: each fine cell's range of each residual value, over all its members
         let flat_fine = fine.concat();
-        let cells = base as usize;
+        let cells = flat_fine.len() / d;
         let residual = |i: u32| -> Vec<f32> {
             let g = cell[i as usize] as usize;
             let c = &flat_fine[g * d..(g + 1) * d];
@@ -881,8 +731,7 @@ impl Ivf {
             });
         let pq = Sq::from_ranges(&lo, &hi, d);
         drop((lo, hi));
-        let links = Links::build(d, &coarse, &fine);
-        let mut ivf = Ivf::from_cells(n, d, coarse, fine, pq, links, &cell, n)
+        let mut ivf = Ivf::from_cells(n, d, coarse, fine, pq, cell, n)
             .expect("cells computed from the centroids are in range");
         // the codes, items in item order a block at a time, each put in its place
         let m = ivf.pq.bytes();
@@ -919,19 +768,13 @@ impl Ivf {
         place
     }
 
-    /// The global fine cell `g`'s coarse cell and its number there, if there is such a cell.
-    fn locate(&self, g: usize) -> Option<(usize, usize)> {
-        // the last coarse cell whose first fine cell is not beyond g (empty ones share it)
-        let ci = self.bases.partition_point(|&b| b <= g).checked_sub(1)?;
-        let fi = g - self.bases[ci];
-        (fi < self.fine[ci].len() / self.d).then_some((ci, fi))
-    }
-
     /// The global fine cell `g`'s centroid, if there is one.
     fn fine_centroid(&self, g: usize) -> Option<&[f32]> {
         let d = self.d;
-        let (ci, fi) = self.locate(g)?;
-        self.fine[ci].get(fi * d..(fi + 1) * d)
+        // the last coarse cell whose first fine cell is not beyond g (empty ones share it)
+        let ci = self.bases.partition_point(|&b| b <= g).checked_sub(1)?;
+        let k = g - self.bases[ci];
+        self.fine[ci].get(k * d..(k + 1) * d)
     }
 
     /// The global fine cell nearest `p`: in the nearest coarse cell that has fine cells, the
@@ -976,14 +819,12 @@ impl Ivf {
     /// fine cell `cell[i]` (fine cells numbered coarse cell by coarse cell), every code zero
     /// (the caller writes them, in cell order). Each cell lists its items in increasing order.
     /// `None` when the parts do not fit together (a damaged cache).
-    #[allow(clippy::too_many_arguments)] // the parts of the inverted file, each its own
     fn from_cells(
         n: usize,
         d: usize,
         coarse: Vec<f32>,
         fine: Vec<Vec<f32>>,
         pq: Sq,
-        links: Links,
         cell: &[u32],
         trained: usize,
     ) -> Option<Ivf> {
@@ -997,7 +838,7 @@ impl Ivf {
             return None;
         }
         let cells: usize = fine.iter().map(|f| f.len() / d).sum();
-        if !pq.fits(d, cells) || !links.fit(cells) {
+        if !pq.fits(d, cells) {
             return None;
         }
         let mut counts = vec![0u32; cells + 1];
@@ -1035,7 +876,6 @@ impl Ivf {
             pq,
             codes: vec![0u8; n.checked_mul(m)?],
             refine: vec![0u8; n.checked_mul(m)?],
-            links,
             trained,
         })
     }
@@ -1108,7 +948,6 @@ impl Ivf {
             coarse: &self.coarse,
             fine: &self.fine,
             pq: &self.pq,
-            links: &self.links,
         };
         bincode::serde::encode_into_std_write(&head, w, config).map_err(enc)?;
         w.write_all(&(by_segment.len() as u64).to_le_bytes())?;
@@ -1195,16 +1034,7 @@ impl Ivf {
             return None;
         }
         // the centroids alone, to assign the items the cache does not hold
-        let centroids = Ivf::from_cells(
-            0,
-            d,
-            head.coarse,
-            head.fine,
-            head.pq,
-            head.links,
-            &[],
-            trained,
-        )?;
+        let centroids = Ivf::from_cells(0, d, head.coarse, head.fine, head.pq, &[], trained)?;
         let m = centroids.pq.bytes();
         // where each live record's items are: (segment, position) -> (first item, items)
         type Wanted = std::collections::HashMap<((u64, u64, u64), u32), (usize, usize)>;
@@ -1275,7 +1105,6 @@ impl Ivf {
             centroids.coarse,
             centroids.fine,
             centroids.pq,
-            centroids.links,
             &cell,
             trained,
         )?;
@@ -1351,10 +1180,17 @@ impl Ivf {
         keep_smallest(&mut coarse, effort.coarse_probes.max(1), |a, b| {
             a.0.total_cmp(&b.0).then(a.1.cmp(&b.1))
         });
+        // each fine cell of those coarse cells with the distance from the query to its box
+        // (no more than to any of its codes: see `Sq::box_distance`)
         let mut fine: Vec<(f32, usize, usize)> = Vec::new();
+        let mut residual = vec![0f32; d];
         for &(_, ci) in &coarse {
             for (fi, c) in self.fine[ci].chunks_exact(d).enumerate() {
-                fine.push((distance_sq(c, q), ci, fi));
+                for ((r, q), c) in residual.iter_mut().zip(q).zip(c) {
+                    *r = q - c;
+                }
+                let g = self.bases[ci] + fi;
+                fine.push((self.pq.box_distance(g, &residual), ci, fi));
             }
         }
         let by_cell = |a: &(f32, usize, usize), b: &(f32, usize, usize)| {
@@ -1366,63 +1202,46 @@ impl Ivf {
         let examined = effort.fine_probes.min(share.max(MIN_FINE_PROBES)).max(1);
         keep_smallest(&mut fine, examined, by_cell);
         fine.sort_by(by_cell);
+        let m = self.pq.bytes();
         let keep = k.saturating_mul(effort.rerank.max(1));
-        let mut scan = Scan {
-            ivf: self,
-            q,
-            keep,
-            found: Vec::with_capacity(keep.min(1 << 12) + CELL_SIZE),
-            shifted: Vec::with_capacity(fine.len()),
-            threshold: f32::INFINITY,
-            residual: vec![0f32; d],
+        // (place in cell order, distance, the scanned cell's position in `shifted`)
+        let by = |a: &(u32, f32, u32), b: &(u32, f32, u32)| {
+            a.1.total_cmp(&b.1)
+                .then_with(|| self.items[a.0 as usize].cmp(&self.items[b.0 as usize]))
         };
-        // the probed cells, nearest centroid first; then the cells linked to scanned ones
-        // (never examined twice), nearest box first, while their boxes are near enough
-        let mut seen = vec![0u64; cells.div_ceil(64)];
-        let mut scanned = Vec::new();
-        for &(_, ci, fi) in &fine {
-            let g = self.bases[ci] + fi;
-            seen[g / 64] |= 1 << (g % 64);
-            if scan.bound(g, ci, fi) <= scan.threshold {
-                scan.cell(g, ci, fi);
-                scanned.push(g);
+        let mut found: Vec<(u32, f32, u32)> = Vec::with_capacity(keep.min(1 << 12) + CELL_SIZE);
+        let mut shifted = Vec::with_capacity(fine.len());
+        // the largest distance among the `keep` nearest found so far, once there are `keep`
+        let mut threshold = f32::INFINITY;
+        for &(bound, ci, fi) in &fine {
+            // every code of the cell stands for a point of its box: a cell whose box is
+            // farther than the `keep`-th nearest found holds none nearer, nor do the cells
+            // after it
+            if bound > threshold {
+                break;
             }
-        }
-        let mut linked = std::collections::BinaryHeap::new();
-        let mut budget = effort.linked;
-        while budget > 0 {
-            for g in scanned.drain(..) {
-                for &h in self.links.of(g) {
-                    let h = h as usize;
-                    if seen[h / 64] & (1 << (h % 64)) != 0 {
-                        continue;
-                    }
-                    seen[h / 64] |= 1 << (h % 64);
-                    if let Some((ci, fi)) = self.locate(h) {
-                        let b = scan.bound(h, ci, fi);
-                        if b <= scan.threshold {
-                            // squared distances are never negative: their bits order them
-                            linked.push(std::cmp::Reverse((b.to_bits(), h, ci, fi)));
-                        }
-                    }
+            let c = &self.fine[ci][fi * d..(fi + 1) * d];
+            for ((r, q), c) in residual.iter_mut().zip(q).zip(c) {
+                *r = q - c;
+            }
+            let g = self.bases[ci] + fi;
+            let prepared = self.pq.shift(g, &residual);
+            let probe = shifted.len() as u32;
+            let (start, end) = self.ranges[ci][fi];
+            for j in start as usize..end as usize {
+                let code = &self.codes[j * m..(j + 1) * m];
+                let dist = Sq::coarse_distance(&prepared, code);
+                if dist <= threshold {
+                    found.push((j as u32, dist, probe));
                 }
             }
-            let Some(std::cmp::Reverse((b, g, ci, fi))) = linked.pop() else {
-                break;
-            };
-            if f32::from_bits(b) > scan.threshold {
-                break;
+            shifted.push(prepared);
+            if found.len() >= keep {
+                keep_smallest(&mut found, keep, by);
+                threshold = found.iter().map(|f| f.1).fold(f32::NEG_INFINITY, f32::max);
             }
-            scan.cell(g, ci, fi);
-            scanned.push(g);
-            budget -= 1;
         }
-        let Scan {
-            mut found, shifted, ..
-        } = scan;
         // the nearest by first bytes, ranked again by whole codes
-        let m = self.pq.bytes();
-        let by = |a: &(u32, f32, u32), b: &(u32, f32, u32)| self.by_place(a, b);
         keep_smallest(&mut found, keep, by);
         for f in &mut found {
             let j = f.0 as usize;
@@ -1447,13 +1266,6 @@ impl Ivf {
                 )
             })
             .collect()
-    }
-
-    /// The order of scanned codes (place in cell order, distance, cell): by distance, then by
-    /// item.
-    fn by_place(&self, a: &(u32, f32, u32), b: &(u32, f32, u32)) -> std::cmp::Ordering {
-        a.1.total_cmp(&b.1)
-            .then_with(|| self.items[a.0 as usize].cmp(&self.items[b.0 as usize]))
     }
 
     /// The largest distance between a residual within its cell's ranges and the one its code
@@ -1588,7 +1400,6 @@ mod tests {
             fine_share: 1.0,
             rerank: n,
             settle: true,
-            linked: 0,
         };
         let k = 30;
         for qi in (0..n).step_by(211) {
@@ -1622,7 +1433,6 @@ mod tests {
             fine_share: 1.0,
             rerank: 2,
             settle: true,
-            linked: 0,
         };
         let m = ivf.pq.bytes();
         let k = 20;
@@ -1664,74 +1474,49 @@ mod tests {
         }
     }
 
-    /// With few coarse cells, each fine cell's forward links are its nearest fine centroids of
-    /// all (ties by cell), and its backward links are cells that link it.
+    /// Parts put in a cell whose centroid is far from them (as when a coarse cell's fine
+    /// centroids were fitted on a sample that missed them): the cell is ranked by its box,
+    /// which holds them, so one cell examined is enough to find them, where the cell with the
+    /// nearest centroid holds none.
     #[test]
-    fn links_are_the_nearest_fine_cells() {
+    fn cells_are_ranked_by_their_boxes_not_their_centroids() {
         let d = 8;
-        let mut rng = ChaCha8Rng::seed_from_u64(12);
-        let points = clustered(&mut rng, 30, 60_000, d, 0.05);
-        let ivf = Ivf::build(&Flat { data: &points, d }, d);
-        assert!(ivf.coarse.len() / d <= LINK_COARSE);
-        let centroids: Vec<&[f32]> = ivf.fine.iter().flat_map(|f| f.chunks_exact(d)).collect();
-        let cells = centroids.len();
-        assert!(cells > 2 * LINKS);
-        assert!(ivf.links.fit(cells));
-        for (g, c) in centroids.iter().enumerate() {
-            let mut all: Vec<(f32, u32)> = (0..cells)
-                .filter(|&h| h != g)
-                .map(|h| (distance_sq(c, centroids[h]), h as u32))
-                .collect();
-            all.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-            let want: Vec<u32> = all[..LINKS].iter().map(|a| a.1).collect();
-            let links = ivf.links.of(g);
-            assert_eq!(links[..LINKS], want[..], "cell {g}");
-            for &h in &links[LINKS..] {
-                assert!(ivf.links.of(h as usize)[..LINKS].contains(&(g as u32)));
-                assert!(!want.contains(&h));
+        let mut rng = ChaCha8Rng::seed_from_u64(14);
+        let at = |x: f32, y: f32| {
+            let mut p = vec![0f32; d];
+            p[0] = x;
+            p[1] = y;
+            p
+        };
+        let (f0, f1, z) = (at(0.0, 0.0), at(10.0, 0.0), at(3.0, 5.0));
+        let mut points = Vec::new();
+        let mut cell = Vec::new();
+        for (centre, g, count) in [(&f0, 0, 200), (&f1, 1, 200), (&z, 1, 30)] {
+            for _ in 0..count {
+                points.extend(centre.iter().map(|c| c + rng.random_range(-0.1..0.1)));
+                cell.push(g);
             }
         }
-    }
-
-    /// Near-duplicate points of many sources in few coarse cells, one coarse cell probed: the
-    /// cells reached through the links of scanned cells hold the neighbours that the probed
-    /// coarse cell lacks.
-    #[test]
-    fn following_links_finds_neighbours_beyond_the_probed_coarse_cell() {
-        let d = 16;
-        let mut rng = ChaCha8Rng::seed_from_u64(13);
-        let n = 20_000;
-        let points = clustered(&mut rng, 3, n, d, 0.3);
         let flat = Flat { data: &points, d };
-        let ivf = Ivf::build(&flat, d);
-        let effort = |linked| SearchEffort {
+        let ivf = Ivf::with_cells(&flat, d, vec![0.0; d], vec![[f0, f1].concat()], &cell);
+        // the query is nearer the centroid of cell 0, and inside the box of cell 1
+        assert!(distance_sq(&z, &ivf.fine[0][..d]) < distance_sq(&z, &ivf.fine[0][d..]));
+        let one = SearchEffort {
             coarse_probes: 1,
-            fine_probes: usize::MAX,
+            fine_probes: 1,
             fine_share: 1.0,
             rerank: 2,
             settle: true,
-            linked,
         };
-        let k = 30;
-        let (mut without, mut with, mut total) = (0, 0, 0);
-        for qi in (0..n).step_by(97) {
-            let q: Vec<f32> = points[qi * d..(qi + 1) * d]
-                .iter()
-                .map(|x| x + rng.random_range(-0.02..0.02))
-                .collect();
-            let want = exact(&points, d, &q, k);
-            let hits = |linked| {
-                let found = ivf.search_bounded(&q, k, effort(linked));
-                let got = resolve(&found, k, |i| Some(distance_sq(flat.point(i), &q)));
-                got.iter().filter(|g| want.contains(&g.0)).count()
-            };
-            without += hits(0);
-            with += hits(LINKED);
-            total += k;
-        }
-        eprintln!("recall without links {without}/{total}, with {with}/{total}");
-        assert!(with as f64 >= 0.99 * total as f64, "{with}/{total}");
-        assert!(without < with, "{without} / {with}");
+        let k = 10;
+        let found = ivf.search_bounded(&z, k, one);
+        let got = resolve(&found, k, |i| Some(distance_sq(flat.point(i), &z)));
+        let mut got: Vec<u32> = got.into_iter().map(|g| g.0).collect();
+        let mut want = exact(&points, d, &z, k);
+        got.sort_unstable();
+        want.sort_unstable();
+        assert_eq!(got, want);
+        assert!(want.iter().all(|&i| i >= 400));
     }
 
     /// A cell's box is no farther from a query than any code of the cell, by first bytes or
@@ -1886,7 +1671,6 @@ mod tests {
             coarse: ivf.coarse.clone(),
             fine: ivf.fine.clone(),
             pq: ivf.pq.clone(),
-            links: ivf.links.clone(),
             segments: vec![SegmentCells {
                 segment: (1, 100, 7),
                 positions: (0..250).collect(),

@@ -54,7 +54,7 @@ mod writer;
 
 pub use error::{CorruptKind, IndexError, Result};
 pub use ivf::{
-    COARSE_PROBES, FINE_PROBES, FINE_SHARE, LINKED, MIN_FINE_PROBES, RERANK, SearchEffort,
+    COARSE_PROBES, FINE_PROBES, FINE_SHARE, MIN_FINE_PROBES, RERANK, SearchEffort,
     distance_sq as squared_distance_fast,
 };
 pub use reader::{

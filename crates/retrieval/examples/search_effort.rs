@@ -12,11 +12,10 @@
 //! copies each; so are 20 sources at 100,000). Queries are indexed shapes' parts moved alike.
 //!
 //! `cargo run --release -p keycomp-retrieval --example search_effort -- SHAPES INDEX [QUERIES]
-//! [SOURCES] [EFFORTS]` (EFFORTS: comma-separated `COARSExFINExRERANKxSETTLExLINKED`: coarse
-//! cells probed, fine cells examined, re-ranked candidates per neighbour, whether the `k`-th
-//! place is settled by descriptors (1) or not (0), and fine cells reached through links, with
-//! no limit by share of the cells (`SearchEffort::fine_share` 1); default
-//! `6x160x2x1x0,6x160x2x1x160`;
+//! [SOURCES] [EFFORTS]` (EFFORTS: comma-separated `COARSExFINExRERANKxSETTLE`: coarse cells
+//! probed, fine cells examined, re-ranked candidates per neighbour, and whether the `k`-th
+//! place is settled by descriptors (1) or not (0), with no limit by share of the cells
+//! (`SearchEffort::fine_share` 1); default `4x160x2x1,6x160x2x1`;
 //! `SCALE_DIR=DIR` puts the grown index in DIR). With `GROWN=DIR`, the index at DIR (e.g. one
 //! grown by `query_scale`, kept) is searched instead of one grown here, SHAPES and SOURCES
 //! unused, and the true-distance column is left out (it reads every neighbour's record). With
@@ -58,7 +57,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let efforts: Vec<SearchEffort> = args
         .get(5)
-        .map_or("6x160x2x1x0,6x160x2x1x160", String::as_str)
+        .map_or("4x160x2x1,6x160x2x1", String::as_str)
         .split(',')
         .map(|e| {
             let v: Vec<usize> = e
@@ -66,19 +65,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 .map(|v| v.trim().parse())
                 .collect::<Result<_, _>>()?;
             match v[..] {
-                [coarse_probes, fine_probes, rerank, settle @ (0 | 1), linked] => {
-                    Ok(SearchEffort {
-                        coarse_probes,
-                        fine_probes,
-                        // the cells asked for, whatever the index's size
-                        fine_share: 1.0,
-                        rerank,
-                        settle: settle == 1,
-                        linked,
-                    })
-                }
+                [coarse_probes, fine_probes, rerank, settle @ (0 | 1)] => Ok(SearchEffort {
+                    coarse_probes,
+                    fine_probes,
+                    // the cells asked for, whatever the index's size
+                    fine_share: 1.0,
+                    rerank,
+                    settle: settle == 1,
+                }),
                 _ => Err::<_, Box<dyn std::error::Error>>(
-                    "an effort is COARSExFINExRERANKxSETTLExLINKED (SETTLE: 0 or 1)".into(),
+                    "an effort is COARSExFINExRERANKxSETTLE (SETTLE: 0 or 1)".into(),
                 ),
             }
         })
@@ -160,9 +156,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
 
     println!(
-        "| coarse cells probed | fine cells examined | fine cells reached through links, at most | re-ranked (× k) | k-th place settled by descriptors | query's parts searched (ms) | the search and the top 10 ranked (ms) | recall of the {CANDIDATES_PER_COMPONENT} nearest | top 10 as exact (same order / same set) | the same neighbours at true distances: top 10 as exact |"
+        "| coarse cells probed | fine cells examined | re-ranked (× k) | k-th place settled by descriptors | query's parts searched (ms) | the search and the top 10 ranked (ms) | recall of the {CANDIDATES_PER_COMPONENT} nearest | top 10 as exact (same order / same set) | the same neighbours at true distances: top 10 as exact |"
     );
-    println!("|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|");
+    println!("|---:|---:|---:|---|---:|---:|---:|---:|---:|");
     for effort in efforts {
         let reader = open(effort)?;
         reader.prepare_search();
@@ -218,10 +214,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             format!("{same_true} of {queries}")
         };
         println!(
-            "| {} | {} | {} | {} | {} | {:.1} | {:.1} | {:.4} | {same} / {same_set} of {queries} | {at_true} |",
+            "| {} | {} | {} | {} | {:.1} | {:.1} | {:.4} | {same} / {same_set} of {queries} | {at_true} |",
             effort.coarse_probes,
             effort.fine_probes,
-            effort.linked,
             effort.rerank,
             if effort.settle { "yes" } else { "no" },
             median(times),
