@@ -28,10 +28,7 @@
 //! the few whose whole-code distances are too close to the `k`-th place to tell apart (within
 //! half a level per value) are settled by their descriptors ([`Settle`]). Near-duplicate
 //! parts fill many neighbouring cells, all of them needed for the `k` nearest; cells of other
-//! parts are far and can be skipped by their boxes: examining 160 cells was measured at about a
-//! quarter more time than scanning 12 (BENCHMARKS.md, "A million shapes: cells skipped by
-//! their boxes", with the cells ranked by their centroids).
-//! Codes are read instead of the `n` descriptors, so that an index larger than memory is
+//! parts have far boxes, and the scan stops at the first of them. Codes are read instead of the `n` descriptors, so that an index larger than memory is
 //! searched from the inverted file alone. A true neighbour is missed when it lies in a cell not
 //! examined, or when rounding puts it beyond the re-ranked ones, so recall is measured, not
 //! guaranteed ([`SearchEffort`] trades speed for it).
@@ -79,7 +76,7 @@ pub const RERANK: usize = 2;
 
 /// How much of the inverted file a search reads: more is slower, and misses fewer true
 /// neighbours (the trade-off of `nprobe` in an IVF index). The default is
-/// [`FINE_PROBES`] and [`RERANK`].
+/// [`COARSE_PROBES`], [`FINE_PROBES`], [`FINE_SHARE`], [`RERANK`], and settling.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SearchEffort {
     /// Coarse cells whose fine cells are candidates for scanning (at least 1).
@@ -588,34 +585,38 @@ impl Sq {
         acc.iter().sum::<f32>() + tail
     }
 
-    /// Squared distance between `r`, a query's residual from the centroid of cell `g`, and the
-    /// box of the points the cell's codes can stand for (each value from the first level to
-    /// the last): no more than its distance to any code of the cell, by first bytes
+    /// Squared distance between `q - c`, a query's residual from `c`, the centroid of cell `g`,
+    /// and the box of the points the cell's codes can stand for (each value from the first
+    /// level to the last): no more than its distance to any code of the cell, by first bytes
     /// ([`Sq::coarse_distance`]: the middles of runs lie in the box) or whole
     /// ([`Sq::distance`]).
-    fn box_distance(&self, g: usize, r: &[f32]) -> f32 {
+    fn box_distance(&self, g: usize, q: &[f32], c: &[f32]) -> f32 {
         let (min, step) = self.cell(g);
         let top = (LEVELS - 1) as f32;
-        // how far `v` lies outside the levels from `lo` by `s`, squared (comparisons rather
-        // than `f32::max`, and eight partial sums, so that the loop vectorises)
-        let out = |v: f32, lo: f32, s: f32| {
+        // how far the residual value `q - c` lies outside the levels from `lo` by `s`,
+        // squared (comparisons rather than `f32::max`, and eight partial sums, so that the
+        // loop vectorises; the residual is never written out)
+        let out = |q: f32, c: f32, lo: f32, s: f32| {
+            let v = q - c;
             let (below, above) = (lo - v, v - (lo + s * top));
             let o = if below > above { below } else { above };
             let o = if o > 0.0 { o } else { 0.0 };
             o * o
         };
         let mut acc = [0f32; 8];
-        let chunks = r
+        let chunks = q
             .chunks_exact(8)
-            .zip(min.chunks_exact(8))
-            .zip(step.chunks_exact(8));
-        for ((v, lo), s) in chunks {
+            .zip(c.chunks_exact(8))
+            .zip(min.chunks_exact(8).zip(step.chunks_exact(8)));
+        for ((q, c), (lo, s)) in chunks {
             for l in 0..8 {
-                acc[l] += out(v[l], lo[l], s[l]);
+                acc[l] += out(q[l], c[l], lo[l], s[l]);
             }
         }
-        let done = r.len() / 8 * 8;
-        let tail: f32 = (done..r.len()).map(|i| out(r[i], min[i], step[i])).sum();
+        let done = q.len() / 8 * 8;
+        let tail: f32 = (done..q.len())
+            .map(|i| out(q[i], c[i], min[i], step[i]))
+            .sum();
         acc.iter().sum::<f32>() + tail
     }
 
@@ -1183,14 +1184,10 @@ impl Ivf {
         // each fine cell of those coarse cells with the distance from the query to its box
         // (no more than to any of its codes: see `Sq::box_distance`)
         let mut fine: Vec<(f32, usize, usize)> = Vec::new();
-        let mut residual = vec![0f32; d];
         for &(_, ci) in &coarse {
             for (fi, c) in self.fine[ci].chunks_exact(d).enumerate() {
-                for ((r, q), c) in residual.iter_mut().zip(q).zip(c) {
-                    *r = q - c;
-                }
                 let g = self.bases[ci] + fi;
-                fine.push((self.pq.box_distance(g, &residual), ci, fi));
+                fine.push((self.pq.box_distance(g, q, c), ci, fi));
             }
         }
         let by_cell = |a: &(f32, usize, usize), b: &(f32, usize, usize)| {
@@ -1213,6 +1210,7 @@ impl Ivf {
         let mut shifted = Vec::with_capacity(fine.len());
         // the largest distance among the `keep` nearest found so far, once there are `keep`
         let mut threshold = f32::INFINITY;
+        let mut residual = vec![0f32; d];
         for &(bound, ci, fi) in &fine {
             // every code of the cell stands for a point of its box: a cell whose box is
             // farther than the `keep`-th nearest found holds none nearer, nor do the cells
@@ -1315,6 +1313,16 @@ mod tests {
         all.into_iter().take(k).map(|x| x.0).collect()
     }
 
+    /// The items `ivf` finds nearest `q` with `effort`, the `k`-th place settled by the true
+    /// distances to `points`, in increasing order.
+    fn settled(ivf: &Ivf, points: &Flat, q: &[f32], k: usize, effort: SearchEffort) -> Vec<u32> {
+        let found = ivf.search_bounded(q, k, effort);
+        let got = resolve(&found, k, |i| Some(distance_sq(points.point(i), q)));
+        let mut got: Vec<u32> = got.into_iter().map(|g| g.0).collect();
+        got.sort_unstable();
+        got
+    }
+
     /// `n` points of `d` values about `centres` random centres (point `i` about centre
     /// `i mod centres`), each value moved by up to ±`spread`.
     fn clustered(
@@ -1407,11 +1415,8 @@ mod tests {
                 .iter()
                 .map(|x| x + rng.random_range(-0.01..0.01))
                 .collect();
-            let found = ivf.search_bounded(&q, k, all);
-            let got = resolve(&found, k, |i| Some(distance_sq(flat.point(i), &q)));
-            let mut got: Vec<u32> = got.into_iter().map(|g| g.0).collect();
+            let got = settled(&ivf, &flat, &q, k, all);
             let mut want = exact(&points, d, &q, k);
-            got.sort_unstable();
             want.sort_unstable();
             assert_eq!(got, want, "query {qi}");
         }
@@ -1509,11 +1514,8 @@ mod tests {
             settle: true,
         };
         let k = 10;
-        let found = ivf.search_bounded(&z, k, one);
-        let got = resolve(&found, k, |i| Some(distance_sq(flat.point(i), &z)));
-        let mut got: Vec<u32> = got.into_iter().map(|g| g.0).collect();
+        let got = settled(&ivf, &flat, &z, k, one);
         let mut want = exact(&points, d, &z, k);
-        got.sort_unstable();
         want.sort_unstable();
         assert_eq!(got, want);
         assert!(want.iter().all(|&i| i >= 400));
@@ -1538,7 +1540,7 @@ mod tests {
             let (mut first, mut second) = (vec![0u8; d], vec![0u8; d]);
             sq.encode(0, &x, &mut first, &mut second);
             let shifted = sq.shift(0, &r);
-            let bound = sq.box_distance(0, &r);
+            let bound = sq.box_distance(0, &r, &vec![0.0; d]);
             let slack = 1e-5 * (1.0 + bound);
             assert!(bound <= Sq::coarse_distance(&shifted, &first) + slack);
             assert!(bound <= Sq::distance(&shifted, &first, &second) + slack);

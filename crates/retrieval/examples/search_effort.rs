@@ -1,7 +1,7 @@
 //! Where the approximate search loses the exact ranking's top 10, and what each search effort
 //! costs: for several [`SearchEffort`]s (fine cells scanned, re-ranked candidates), the search
-//! of a query's parts, that search and the ranking of the top 10 (`rank`'s two steps), the recall of each part's `CANDIDATES_PER_COMPONENT` exact neighbours,
-//! and how many queries get the exact ranking's top 10: with the neighbours as the inverted
+//! of a query's parts, that search and the ranking of the top 10 (`rank`'s two steps), the
+//! recall of each part's `CANDIDATES_PER_COMPONENT` exact neighbours, and how many queries get the exact ranking's top 10: with the neighbours as the inverted
 //! file gives them, and with the same neighbours at their true distances (which separates the
 //! neighbours missed from the rounding of the distances that vote for candidates).
 //!
@@ -22,7 +22,8 @@
 //! `DROP_CACHES=1` (Linux, as root), the system's page cache is dropped before each effort's
 //! queries, so that the parts of the index they read come from the disk, as for a process's
 //! first queries on an index larger than memory. With `TRUTH=FILE`, the exact results are read
-//! from FILE when it holds them for as many shapes and queries, else computed and written there
+//! from FILE when it holds them for the same queries (the same index: the queries are its
+//! records moved), else computed and written there
 //! (they take about as long as `query_scale`'s exact search). Prints a markdown table; medians
 //! over the queries.
 
@@ -124,10 +125,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let params = MatchParams::default();
     let top = |v: &[keycomp_retrieval::Ranked]| v.iter().map(|r| r.id).collect::<Vec<_>>();
     // the exact neighbours of every query part in one batch, and the exact rankings (read
-    // from TRUTH when it was written for this many shapes and queries)
+    // from TRUTH when it was written for these queries)
     let saved = std::env::var_os("TRUTH").map(std::path::PathBuf::from);
+    let key = {
+        let bytes: Vec<u8> = asked
+            .iter()
+            .flat_map(|q| q.0.iter().flatten().chain(&q.1))
+            .flat_map(|v| v.to_le_bytes())
+            .collect();
+        keycomp_index::ContentHash::of_bytes(&bytes).to_string()
+    };
     let mut truth = match saved.as_deref().filter(|p| p.exists()) {
-        Some(p) => read_truth(p, ids.len(), queries)?,
+        Some(p) => read_truth(p, &key)?,
         None => Vec::new(),
     };
     if truth.is_empty() {
@@ -145,7 +154,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             all = rest;
         }
         if let Some(p) = &saved {
-            write_truth(p, ids.len(), queries, &truth)?;
+            write_truth(p, &key, &truth)?;
         }
     }
     let gaps: Vec<f64> = truth.iter().map(|t| t.2).collect();
@@ -231,12 +240,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 /// scores.
 type Truth = (Vec<ShapeId>, Vec<Vec<ComponentMatch>>, f64);
 
-/// Writes the exact results of `queries` queries on an index of `shapes` shapes to `path`
-/// (JSON).
+/// Writes the exact results of the queries whose content hash is `key` to `path` (JSON).
 fn write_truth(
     path: &std::path::Path,
-    shapes: usize,
-    queries: usize,
+    key: &str,
     truth: &[Truth],
 ) -> Result<(), Box<dyn std::error::Error>> {
     let rows: Vec<serde_json::Value> = truth
@@ -254,24 +261,17 @@ fn write_truth(
             serde_json::json!({ "top": top, "neighbours": nb, "gap": gap.min(f64::MAX) })
         })
         .collect();
-    let v = serde_json::json!({ "shapes": shapes, "queries": queries, "truth": rows });
+    let v = serde_json::json!({ "queries": key, "truth": rows });
     std::fs::write(path, serde_json::to_vec(&v)?)?;
     Ok(())
 }
 
 /// The exact results [`write_truth`] wrote to `path`, or none when they were written for
-/// another index size or query count.
-fn read_truth(
-    path: &std::path::Path,
-    shapes: usize,
-    queries: usize,
-) -> Result<Vec<Truth>, Box<dyn std::error::Error>> {
+/// other queries than those whose content hash is `key`.
+fn read_truth(path: &std::path::Path, key: &str) -> Result<Vec<Truth>, Box<dyn std::error::Error>> {
     let v: serde_json::Value = serde_json::from_slice(&std::fs::read(path)?)?;
-    if v["shapes"] != shapes || v["queries"] != queries {
-        eprintln!(
-            "{}: written for another index or query count",
-            path.display()
-        );
+    if v["queries"] != key {
+        eprintln!("{}: written for other queries", path.display());
         return Ok(Vec::new());
     }
     let rows = v["truth"].as_array().ok_or("no truth")?;
