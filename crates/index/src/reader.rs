@@ -772,6 +772,36 @@ impl<const D: usize> IndexReader<D> {
         }
     }
 
+    /// The component descriptors of shape `id`, if it is live in this snapshot, in component
+    /// order: read in place from a mapped segment's descriptor block without decoding the
+    /// record (and so without its checksum, as the nearest-neighbour search reads them; a
+    /// damaged record is still found by [`IndexReader::get`]).
+    ///
+    /// Errors: [`IndexError::Corrupt`] if the segment's table places them outside its block.
+    pub fn descriptors(&self, id: ShapeId) -> Result<Option<Vec<[f32; D]>>> {
+        let Ok(i) = self.slots.binary_search_by_key(&id, |s| s.id) else {
+            return Ok(None);
+        };
+        if let Some(r) = &self.records[i] {
+            return Ok(Some(r.components.iter().map(|c| c.descriptor).collect()));
+        }
+        let slot = self.slots[i];
+        let m = self
+            .mapped
+            .get(slot.segment as usize)
+            .ok_or_else(|| IndexError::InvalidQuery {
+                reason: format!("shape {} has no record", slot.id),
+            })?;
+        let flat = m.descriptors(slot.position as usize, D).ok_or_else(|| {
+            m.malformed(format!(
+                "the descriptors of shape {id} are beyond the descriptor block"
+            ))
+        })?;
+        let (arrays, rest) = flat.as_chunks::<D>();
+        debug_assert!(rest.is_empty());
+        Ok(Some(arrays.to_vec()))
+    }
+
     /// Asks the system to start reading the records of `ids` that lie in memory-mapped
     /// segments (their bytes and descriptors), so that the [`IndexReader::get`] calls that
     /// follow wait on those reads together rather than one after another: on an index larger

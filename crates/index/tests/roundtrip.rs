@@ -269,3 +269,30 @@ fn remove_by_relative_path_of_a_deleted_file() {
     std::fs::remove_file(&mesh).unwrap();
     assert_eq!(w.remove(&[mesh]).unwrap(), 1);
 }
+
+/// A shape's descriptors read on their own are its record's, whether the segment is read
+/// whole or memory-mapped (read in place), across segments and after a removal.
+#[test]
+fn descriptors_alone_are_the_records() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("index");
+    let mut w = IndexWriter::<D>::create_or_open(&dir).unwrap();
+    w.add_batch(records(0..12)).unwrap();
+    w.add_batch(records(12..20)).unwrap();
+    let gone = records(3..4).remove(0).canonical_path;
+    assert_eq!(w.remove(&[gone]).unwrap(), 1);
+    drop(w);
+    for reader in [
+        IndexReader::<D>::open(&dir).unwrap(),
+        IndexReader::<D>::open_mapped(&dir).unwrap(),
+    ] {
+        assert_eq!(reader.len(), 19);
+        for s in reader.shapes().unwrap() {
+            let want: Vec<[f32; D]> = s.record.components.iter().map(|c| c.descriptor).collect();
+            assert!(!want.is_empty());
+            assert_eq!(reader.descriptors(s.id).unwrap(), Some(want));
+        }
+        let absent = keycomp_index::ShapeId(reader.ids().max().unwrap().0 + 1);
+        assert_eq!(reader.descriptors(absent).unwrap(), None);
+    }
+}

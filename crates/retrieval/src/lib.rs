@@ -5,10 +5,14 @@
 //!
 //! 1. Similarity of query component i and target component a: `w = max(0, 1 − d/d_max)` with
 //!    `d` the Euclidean descriptor distance and `d_max` = [`MatchParams::max_distance`].
-//! 2. The one-to-one assignment maximising the total similarity (Kuhn–Munkres: H. W. Kuhn, "The
-//!    Hungarian method for the assignment problem", Naval Research Logistics Quarterly 2, 1955;
-//!    J. Munkres, "Algorithms for the assignment and transportation problems", J. SIAM 5, 1957),
-//!    keeping the pairs with `d < d_max`.
+//! 2. The one-to-one assignment maximising the total similarity (the linear assignment problem
+//!    of H. W. Kuhn, "The Hungarian method for the assignment problem", Naval Research
+//!    Logistics Quarterly 2, 1955), keeping the pairs with `d < d_max`. It is solved by
+//!    shortest augmenting paths (R. Jonker, A. Volgenant, "A shortest augmenting path
+//!    algorithm for dense and sparse linear assignment problems", Computing 38, 1987), for
+//!    rectangular matrices as in D. F. Crouse, "On implementing 2D rectangular assignment
+//!    algorithms", IEEE Trans. Aerospace and Electronic Systems 52, 2016 (the `lsap` crate);
+//!    similarities are whole multiples of 10⁻⁶, so the optimum is exact.
 //! 3. Geometric consistency: for two kept pairs (i, a) and (j, b) the geodesic distance between
 //!    the query centres, `dq(i, j)`, and between the target centres, `dt(a, b)`, must agree up to
 //!    one scale factor s for the whole shape (a fragment is normalised to unit area on its own,
@@ -66,8 +70,6 @@ pub use query::{
 };
 
 use keycomp_describe::Descriptor;
-use pathfinding::kuhn_munkres::kuhn_munkres;
-use pathfinding::matrix::Matrix;
 use serde::{Deserialize, Serialize};
 
 /// Parameters of [`match_shapes`].
@@ -323,10 +325,15 @@ fn part_weight(weights: &[f64], i: usize) -> f64 {
 
 /// Descriptor distances of every query part to every target part, `mq × mt` row-major.
 pub(crate) fn distances(query: &[Descriptor], target: &[Descriptor]) -> Vec<f32> {
-    let mt = target.len();
-    (0..query.len() * mt)
-        .map(|k| keycomp_index::squared_distance_fast(&query[k / mt], &target[k % mt]).sqrt())
-        .collect()
+    let mut d = Vec::with_capacity(query.len() * target.len());
+    for q in query {
+        d.extend(
+            target
+                .iter()
+                .map(|t| keycomp_index::squared_distance_fast(q, t).sqrt()),
+        );
+    }
+    d
 }
 
 /// An upper bound of [`match_weighted`]'s score from its distance matrix `d`: the smaller of
@@ -409,29 +416,30 @@ pub(crate) fn assign(
         return None;
     }
     let max_d = params.max_distance.max(f32::MIN_POSITIVE);
+    // similarities in units of 1e-6, whole numbers: the solver's sums are then exact, so its
+    // optimum does not depend on the order of its additions
     const SCALE: f64 = 1e6;
-    let weight = |i: usize, dd: f32| -> i64 {
+    let weight = |i: usize, dd: f32| -> f64 {
         let w = (1.0 - dd / max_d).max(0.0) as f64 * weight_of(i);
         if w.is_finite() {
-            (w * SCALE).round() as i64
+            (w * SCALE).round()
         } else {
-            0
+            0.0
         }
     };
-    // Kuhn–Munkres needs rows ≤ columns: put the smaller side on the rows.
+    // the solver takes rows ≤ columns without copying: put the smaller side on the rows
     let transpose = mq > mt;
     let (rows, cols) = if transpose { (mt, mq) } else { (mq, mt) };
-    let mut values = Vec::with_capacity(rows * cols);
+    // costs: the similarities negated, as the solver minimises
+    let mut costs = Vec::with_capacity(rows * cols);
     for r in 0..rows {
         for c in 0..cols {
             let (i, a) = if transpose { (c, r) } else { (r, c) };
-            values.push(weight(i, d[i * mt + a]));
+            costs.push(-weight(i, d[i * mt + a]));
         }
     }
-    let Ok(matrix) = Matrix::from_vec(rows, cols, values) else {
-        return None;
-    };
-    let (_, assignment) = kuhn_munkres(&matrix);
+    // finite costs always have an assignment: an error is not expected
+    let (_, assignment) = lsap::solve(rows, cols, &costs, false).ok()?;
     let mut matches: Vec<ComponentMatch> = assignment
         .iter()
         .enumerate()

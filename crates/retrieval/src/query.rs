@@ -190,7 +190,7 @@ pub fn rank_hypotheses(
 /// Branch and bound: the matrix of descriptor distances gives each candidate an upper bound of
 /// its score ([`crate::score_bound`]: every query part at its best similarity); candidates are
 /// matched in order of decreasing bound, a batch of a few at a time in parallel, until the
-/// next bound is below the `k`-th best score found. Kuhn–Munkres and the layout check, the
+/// next bound is below the `k`-th best score found. The assignment and the layout check, the
 /// costly steps, then run only for candidates that can still enter the top `k`.
 fn match_candidates(
     reader: &IndexReader<DIM>,
@@ -200,36 +200,34 @@ fn match_candidates(
     params: &MatchParams,
     weights: &[f64],
 ) -> Result<Vec<Ranked>, IndexError> {
+    /// A candidate as the bounds need it: its descriptors, read in place, not its record.
     struct Candidate {
         id: ShapeId,
-        rec: std::sync::Arc<keycomp_index::ShapeRecord<DIM>>,
         descriptors: Vec<Descriptor>,
-        areas: Vec<f32>,
-        centres: Vec<[f32; 3]>,
         d: Vec<f32>,
         bound: f64,
     }
+    /// A matched candidate's record and what its view takes from it.
+    struct Loaded {
+        rec: std::sync::Arc<keycomp_index::ShapeRecord<DIM>>,
+        areas: Vec<f32>,
+        centres: Vec<[f32; 3]>,
+    }
     let mq = query.descriptors.len();
-    // every candidate's record is read below: have the system read them all at once
+    // the records of the best-bounded candidates are read below: have the system read them
+    // all at once
     reader.prefetch(&by_vote.iter().map(|c| c.0).collect::<Vec<_>>());
     let candidates: Vec<Option<Candidate>> = by_vote
         .par_iter()
         .map(|&(id, _)| {
-            let Some(rec) = reader.get(id)? else {
+            let Some(descriptors) = reader.descriptors(id)? else {
                 return Ok(None);
             };
-            let descriptors: Vec<Descriptor> =
-                rec.components.iter().map(|c| c.descriptor).collect();
             let d = crate::distances(query.descriptors, &descriptors);
             let bound = crate::score_bound(mq, descriptors.len(), &d, params, weights);
-            let areas = record_areas(&rec, params);
-            let centres = record_centres(&rec, params);
             Ok(Some(Candidate {
                 id,
-                rec,
                 descriptors,
-                areas,
-                centres,
                 d,
                 bound,
             }))
@@ -237,13 +235,13 @@ fn match_candidates(
         .collect::<Result<_, IndexError>>()?;
     let mut candidates: Vec<Candidate> = candidates.into_iter().flatten().collect();
     candidates.sort_by(|a, b| b.bound.total_cmp(&a.bound).then(a.id.cmp(&b.id)));
-    fn view<'c>(c: &'c Candidate, params: &MatchParams) -> ShapeView<'c> {
+    fn view<'c>(c: &'c Candidate, l: &'c Loaded, params: &MatchParams) -> ShapeView<'c> {
         ShapeView {
             descriptors: &c.descriptors,
-            layout: &c.rec.layout,
-            areas: &c.areas,
-            centres: &c.centres,
-            sample: record_sample(&c.rec, params),
+            layout: &l.rec.layout,
+            areas: &l.areas,
+            centres: &l.centres,
+            sample: record_sample(&l.rec, params),
         }
     }
     /// A candidate's match, and its assignment while the shortlist may still verify it.
@@ -256,21 +254,32 @@ fn match_candidates(
         verify_weight: 0.0,
         ..*params
     };
-    let first_pass = |c: &Candidate| -> Scored {
-        let v = view(c, &first);
-        match crate::assign(query, v, &c.d, &first, weights) {
+    // a record is decoded only for the candidates matched: those whose bound can still
+    // enter the top k
+    let first_pass = |c: &Candidate| -> Result<(Loaded, Scored), IndexError> {
+        let rec = reader.get(c.id)?.ok_or_else(|| IndexError::InvalidQuery {
+            reason: format!("shape {} has descriptors but no record", c.id),
+        })?;
+        let l = Loaded {
+            areas: record_areas(&rec, params),
+            centres: record_centres(&rec, params),
+            rec,
+        };
+        let v = view(c, &l, &first);
+        let scored = match crate::assign(query, v, &c.d, &first, weights) {
             None => (ShapeMatch::none(), None),
             Some(a) => {
                 let kept = verifying.then(|| a.clone());
                 (crate::finish(query, v, &c.d, &first, weights, a), kept)
             }
-        }
+        };
+        Ok((l, scored))
     };
-    let by_score = |ranked: &mut Vec<(usize, Scored)>| {
+    let by_score = |ranked: &mut Vec<(usize, Loaded, Scored)>| {
         ranked.sort_by(|a, b| {
-            b.1.0
+            b.2.0
                 .score
-                .total_cmp(&a.1.0.score)
+                .total_cmp(&a.2.0.score)
                 .then(candidates[a.0].id.cmp(&candidates[b.0].id))
         })
     };
@@ -280,22 +289,22 @@ fn match_candidates(
         k
     };
     let batch = 2 * rayon::current_num_threads().max(1);
-    // (position in `candidates`, its match and assignment)
-    let mut ranked: Vec<(usize, Scored)> = Vec::new();
+    // (position in `candidates`, its record, its match and assignment)
+    let mut ranked: Vec<(usize, Loaded, Scored)> = Vec::new();
     let mut next = 0;
     while next < candidates.len() {
         if ranked.len() >= k_first {
             // the k-th best score so far; a bound below it (by more than rounding) cannot enter
-            let kth = ranked[k_first - 1].1.0.score;
+            let kth = ranked[k_first - 1].2.0.score;
             if candidates[next].bound + 1e-9 < kth {
                 break;
             }
         }
         let end = (next + batch).min(candidates.len());
-        let done: Vec<(usize, Scored)> = (next..end)
+        let done: Vec<(usize, Loaded, Scored)> = (next..end)
             .into_par_iter()
-            .map(|i| (i, first_pass(&candidates[i])))
-            .collect();
+            .map(|i| first_pass(&candidates[i]).map(|(l, s)| (i, l, s)))
+            .collect::<Result<_, IndexError>>()?;
         ranked.extend(done);
         by_score(&mut ranked);
         next = end;
@@ -306,15 +315,14 @@ fn match_candidates(
         let shortlist = ranked.len().min(VERIFIED_CANDIDATES);
         ranked[..shortlist]
             .par_iter_mut()
-            .for_each(|(i, (m, assigned))| {
+            .for_each(|(i, l, (m, assigned))| {
                 if let Some(a) = assigned.take() {
                     let c = &candidates[*i];
-                    *m = crate::finish(query, view(c, params), &c.d, params, weights, a);
+                    *m = crate::finish(query, view(c, l, params), &c.d, params, weights, a);
                 }
             });
-        for (i, (m, _)) in &mut ranked[shortlist..] {
-            let c = &candidates[*i];
-            if crate::can_verify(&query, &view(c, params), params) {
+        for (i, l, (m, _)) in &mut ranked[shortlist..] {
+            if crate::can_verify(&query, &view(&candidates[*i], l, params), params) {
                 m.score *= 1.0 - gamma;
             }
         }
@@ -322,9 +330,9 @@ fn match_candidates(
     }
     Ok(ranked
         .into_iter()
-        .map(|(i, (result, _))| Ranked {
+        .map(|(i, l, (result, _))| Ranked {
             id: candidates[i].id,
-            path: candidates[i].rec.path.clone(),
+            path: l.rec.path.clone(),
             result,
             hypothesis: 0,
         })
