@@ -2,14 +2,15 @@
 //! from the index's nearest-neighbour search over part descriptors (exact, or approximate on
 //! large indexes: `keycomp_index::SearchMode`), each voted for by the query parts it has near
 //! neighbours for; then [`crate::match_weighted`] (the part-to-part assignment and the layout
-//! check) for the [`MATCHED_CANDIDATES`] best-voted, pruned by a bound on their score when
-//! only the top `k` are asked for; with verification on ([`MatchParams::verify_weight`]), the
+//! check) for the [`MATCHED_CANDIDATES`] best-voted, pruned by two bounds on their score when
+//! only the top `k` are asked for (their descriptors' distances, then their assignment); with verification on ([`MatchParams::verify_weight`]), the
 //! [`VERIFIED_CANDIDATES`] best of those are matched again with it ([`crate::verify`]) and
 //! the ranking redone.
 //!
 //! Cost: m searches in parallel (m query parts, [`CANDIDATES_PER_COMPONENT`] neighbours each),
-//! the votes in O(m · [`CANDIDATES_PER_COMPONENT`]), the bounds in O(m²) per candidate, then
-//! at most [`MATCHED_CANDIDATES`] assignments of O(m³) each (in parallel), independent of the
+//! the votes in O(m · [`CANDIDATES_PER_COMPONENT`]), the first bounds in O(m²) per candidate
+//! (from the descriptors alone), then at most [`MATCHED_CANDIDATES`] assignments of O(m³) each
+//! and as many layout checks (each with its record read), in parallel, independent of the
 //! index size beyond the searches.
 
 use std::collections::{BTreeMap, BTreeSet};
@@ -187,11 +188,14 @@ pub fn rank_hypotheses(
 /// by score (ties by shape id), in that order; a candidate's score is the same as if every
 /// candidate were matched.
 ///
-/// Branch and bound: the matrix of descriptor distances gives each candidate an upper bound of
-/// its score ([`crate::score_bound`]: every query part at its best similarity); candidates are
-/// matched in order of decreasing bound, a batch of a few at a time in parallel, until the
-/// next bound is below the `k`-th best score found. The assignment and the layout check, the
-/// costly steps, then run only for candidates that can still enter the top `k`.
+/// Best-first branch and bound over two upper bounds of a candidate's score: the matrix of
+/// descriptor distances gives one ([`crate::score_bound`]: every query part at its best
+/// similarity), the assignment a tighter one ([`crate::pairs_bound`]: every assigned pair
+/// kept). The open candidate of highest bound is taken next (a batch of a few at a time, in
+/// parallel): assigned if only its first bound is known, then put back with the second;
+/// otherwise its record is read and its match finished (the layout check). It stops when the
+/// highest open bound is below the `k`-th best score found, so the layout check, the costliest
+/// step, runs only for candidates whose assignment can still enter the top `k`.
 fn match_candidates(
     reader: &IndexReader<DIM>,
     query: ShapeView,
@@ -233,8 +237,7 @@ fn match_candidates(
             }))
         })
         .collect::<Result<_, IndexError>>()?;
-    let mut candidates: Vec<Candidate> = candidates.into_iter().flatten().collect();
-    candidates.sort_by(|a, b| b.bound.total_cmp(&a.bound).then(a.id.cmp(&b.id)));
+    let candidates: Vec<Candidate> = candidates.into_iter().flatten().collect();
     fn view<'c>(c: &'c Candidate, l: &'c Loaded, params: &MatchParams) -> ShapeView<'c> {
         ShapeView {
             descriptors: &c.descriptors,
@@ -246,6 +249,38 @@ fn match_candidates(
     }
     /// A candidate's match, and its assignment while the shortlist may still verify it.
     type Scored = (ShapeMatch, Option<crate::Assigned>);
+    /// An open candidate (`at` in `candidates`): its best bound, and its assigned pairs once
+    /// known (`Some(None)`: it has none to assign).
+    struct Open {
+        bound: f64,
+        id: ShapeId,
+        at: usize,
+        pairs: Option<Option<Vec<crate::ComponentMatch>>>,
+    }
+    // the best first: the higher bound, then the lower id
+    impl Ord for Open {
+        fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+            self.bound
+                .total_cmp(&other.bound)
+                .then(other.id.cmp(&self.id))
+        }
+    }
+    impl PartialOrd for Open {
+        fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+            Some(self.cmp(other))
+        }
+    }
+    impl PartialEq for Open {
+        fn eq(&self, other: &Self) -> bool {
+            self.cmp(other).is_eq()
+        }
+    }
+    impl Eq for Open {}
+    /// A step's outcome: a candidate assigned and open again, or matched.
+    enum Step {
+        Assigned(Open),
+        Matched(usize, Loaded, Scored),
+    }
     // verification runs on the shortlist only: the first stage ranks without it, and keeps
     // each assignment (the costly step) for the shortlist to finish again with verification
     let gamma = crate::unit_weight(params.verify_weight);
@@ -254,9 +289,20 @@ fn match_candidates(
         verify_weight: 0.0,
         ..*params
     };
-    // a record is decoded only for the candidates matched: those whose bound can still
-    // enter the top k
-    let first_pass = |c: &Candidate| -> Result<(Loaded, Scored), IndexError> {
+    let step = |o: Open| -> Result<Step, IndexError> {
+        let c = &candidates[o.at];
+        let Some(pairs) = o.pairs else {
+            let pairs = crate::pair(mq, c.descriptors.len(), &c.d, &first, weights);
+            let bound = pairs
+                .as_ref()
+                .map_or(0.0, |m| crate::pairs_bound(mq, m, &first, weights));
+            return Ok(Step::Assigned(Open {
+                bound: bound.min(o.bound),
+                pairs: Some(pairs),
+                ..o
+            }));
+        };
+        // a record is decoded only for the candidates whose assignment can enter the top k
         let rec = reader.get(c.id)?.ok_or_else(|| IndexError::InvalidQuery {
             reason: format!("shape {} has descriptors but no record", c.id),
         })?;
@@ -266,14 +312,15 @@ fn match_candidates(
             rec,
         };
         let v = view(c, &l, &first);
-        let scored = match crate::assign(query, v, &c.d, &first, weights) {
+        let scored = match pairs {
             None => (ShapeMatch::none(), None),
-            Some(a) => {
+            Some(pairs) => {
+                let a = crate::check(query, v, pairs, &first);
                 let kept = verifying.then(|| a.clone());
                 (crate::finish(query, v, &c.d, &first, weights, a), kept)
             }
         };
-        Ok((l, scored))
+        Ok(Step::Matched(o.at, l, scored))
     };
     let by_score = |ranked: &mut Vec<(usize, Loaded, Scored)>| {
         ranked.sort_by(|a, b| {
@@ -289,25 +336,44 @@ fn match_candidates(
         k
     };
     let batch = 2 * rayon::current_num_threads().max(1);
+    let mut open: std::collections::BinaryHeap<Open> = candidates
+        .iter()
+        .enumerate()
+        .map(|(at, c)| Open {
+            bound: c.bound,
+            id: c.id,
+            at,
+            pairs: None,
+        })
+        .collect();
     // (position in `candidates`, its record, its match and assignment)
     let mut ranked: Vec<(usize, Loaded, Scored)> = Vec::new();
-    let mut next = 0;
-    while next < candidates.len() {
-        if ranked.len() >= k_first {
-            // the k-th best score so far; a bound below it (by more than rounding) cannot enter
-            let kth = ranked[k_first - 1].2.0.score;
-            if candidates[next].bound + 1e-9 < kth {
-                break;
+    loop {
+        // the k-th best score so far; a bound below it (by more than rounding) cannot enter
+        let kth = (ranked.len() >= k_first).then(|| ranked[k_first - 1].2.0.score);
+        let mut work = Vec::with_capacity(batch);
+        while work.len() < batch
+            && open
+                .peek()
+                .is_some_and(|o| kth.is_none_or(|kth| o.bound + 1e-9 >= kth))
+            && let Some(o) = open.pop()
+        {
+            work.push(o);
+        }
+        if work.is_empty() {
+            break;
+        }
+        let done: Vec<Step> = work
+            .into_par_iter()
+            .map(step)
+            .collect::<Result<_, IndexError>>()?;
+        for s in done {
+            match s {
+                Step::Assigned(o) => open.push(o),
+                Step::Matched(at, l, scored) => ranked.push((at, l, scored)),
             }
         }
-        let end = (next + batch).min(candidates.len());
-        let done: Vec<(usize, Loaded, Scored)> = (next..end)
-            .into_par_iter()
-            .map(|i| first_pass(&candidates[i]).map(|(l, s)| (i, l, s)))
-            .collect::<Result<_, IndexError>>()?;
-        ranked.extend(done);
         by_score(&mut ranked);
-        next = end;
     }
     if verifying {
         // the shortlist finished again with verification; beyond it, a shape that could have
