@@ -283,9 +283,9 @@ impl MappedSegment {
         let _ = (position, component, dim);
     }
 
-    /// Asks the system to start reading the record at `position` and its descriptors (a
-    /// hint: errors are of no consequence and ignored).
-    fn prefetch(&self, position: usize, dim: usize) {
+    /// Asks the system to start reading the descriptors of the record at `position`, and its
+    /// bytes if `record` (a hint: errors are of no consequence and ignored).
+    fn prefetch(&self, position: usize, dim: usize, record: bool) {
         #[cfg(unix)]
         if let Some(e) = self.table.entries.get(position) {
             let advise = |offset: usize, len: usize| {
@@ -295,7 +295,9 @@ impl MappedSegment {
                         .advise_range(memmap2::Advice::WillNeed, offset, len);
                 }
             };
-            advise(e.offset as usize, e.len as usize);
+            if record {
+                advise(e.offset as usize, e.len as usize);
+            }
             let first = 4 * dim * e.first as usize;
             advise(
                 self.table.block.start + first,
@@ -303,7 +305,7 @@ impl MappedSegment {
             );
         }
         #[cfg(not(unix))]
-        let _ = (position, dim);
+        let _ = (position, dim, record);
     }
 
     fn head(&self) -> Result<&segment::SegmentHead> {
@@ -808,11 +810,22 @@ impl<const D: usize> IndexReader<D> {
     /// than memory, a query's candidates are read from the disk at once instead of in turn.
     /// A hint only: nothing is read or checked here; ids not live are skipped.
     pub fn prefetch(&self, ids: &[ShapeId]) {
+        self.prefetch_parts(ids, true);
+    }
+
+    /// [`IndexReader::prefetch`] of the descriptors alone, for the
+    /// [`IndexReader::descriptors`] calls that follow: a query that bounds many candidates by
+    /// their descriptors before it reads the records of a few asks the disk for less.
+    pub fn prefetch_descriptors(&self, ids: &[ShapeId]) {
+        self.prefetch_parts(ids, false);
+    }
+
+    fn prefetch_parts(&self, ids: &[ShapeId], records: bool) {
         for id in ids {
             if let Ok(i) = self.slots.binary_search_by_key(id, |s| s.id) {
                 let slot = self.slots[i];
                 if let Some(m) = self.mapped.get(slot.segment as usize) {
-                    m.prefetch(slot.position as usize, D);
+                    m.prefetch(slot.position as usize, D, records);
                 }
             }
         }

@@ -218,9 +218,9 @@ fn match_candidates(
         centres: Vec<[f32; 3]>,
     }
     let mq = query.descriptors.len();
-    // the records of the best-bounded candidates are read below: have the system read them
-    // all at once
-    reader.prefetch(&by_vote.iter().map(|c| c.0).collect::<Vec<_>>());
+    // every candidate's descriptors are read below: have the system read them all at once
+    // (their records are asked for once assigned, below)
+    reader.prefetch_descriptors(&by_vote.iter().map(|c| c.0).collect::<Vec<_>>());
     let candidates: Vec<Option<Candidate>> = by_vote
         .par_iter()
         .map(|&(id, _)| {
@@ -367,13 +367,24 @@ fn match_candidates(
             .into_par_iter()
             .map(step)
             .collect::<Result<_, IndexError>>()?;
+        let mut assigned = Vec::new();
         for s in done {
             match s {
-                Step::Assigned(o) => open.push(o),
+                Step::Assigned(o) => assigned.push(o),
                 Step::Matched(at, l, scored) => ranked.push((at, l, scored)),
             }
         }
         by_score(&mut ranked);
+        // a record is read when its assignment's bound can still enter the top k: have the
+        // system start reading it while others are matched
+        let kth = (ranked.len() >= k_first).then(|| ranked[k_first - 1].2.0.score);
+        let wanted: Vec<ShapeId> = assigned
+            .iter()
+            .filter(|o| kth.is_none_or(|kth| o.bound + 1e-9 >= kth))
+            .map(|o| o.id)
+            .collect();
+        reader.prefetch(&wanted);
+        open.extend(assigned);
     }
     if verifying {
         // the shortlist finished again with verification; beyond it, a shape that could have
