@@ -25,12 +25,13 @@
 //! from FILE when it holds them for the same queries (the same index: the queries are its
 //! records moved), else computed and written there
 //! (they take about as long as `query_scale`'s exact search). Prints a markdown table; medians
-//! over the queries.
+//! over the queries, and the bytes read from the disk per query (mean, Linux; the reads the
+//! page cache serves are not counted).
 
 use std::time::Instant;
 
 mod common;
-use common::{grown_copy, median, perturbed_query, view};
+use common::{disk_read_bytes, grown_copy, median, perturbed_query, view};
 use keycomp_describe::DIM;
 use keycomp_index::{
     ComponentMatch, IndexReader, IndexWriter, SearchEffort, SearchMode, ShapeId, ShapeRecord,
@@ -165,9 +166,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
 
     println!(
-        "| coarse cells probed | fine cells examined | re-ranked (× k) | k-th place settled by descriptors | query's parts searched (ms) | the search and the top 10 ranked (ms) | recall of the {CANDIDATES_PER_COMPONENT} nearest | top 10 as exact (same order / same set) | the same neighbours at true distances: top 10 as exact |"
+        "| coarse cells probed | fine cells examined | re-ranked (× k) | k-th place settled by descriptors | query's parts searched (ms) | the search and the top 10 ranked (ms) | disk read per query (MB) | recall of the {CANDIDATES_PER_COMPONENT} nearest | top 10 as exact (same order / same set) | the same neighbours at true distances: top 10 as exact |"
     );
-    println!("|---:|---:|---:|---|---:|---:|---:|---:|---:|");
+    println!("|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|");
     for effort in efforts {
         let reader = open(effort)?;
         reader.prepare_search();
@@ -176,7 +177,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         let (mut times, mut whole, mut recalls) = (Vec::new(), Vec::new(), Vec::new());
         let (mut same, mut same_set, mut same_true) = (0, 0, 0);
+        // bytes read from the disk by the queries' searches and rankings; None where unknown
+        let mut read = Some(0u64);
         for ((d, l), (want, exact_nb, _)) in asked.iter().zip(&truth) {
+            let read_before = disk_read_bytes();
             let t = Instant::now();
             let got = reader.nearest_components_batch(d, CANDIDATES_PER_COMPONENT)?;
             times.push(t.elapsed().as_secs_f64() * 1e3);
@@ -192,6 +196,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let r = top(&rank_neighbours(&reader, view(d, l), &got, 10, &params)?);
             // the search and the ranking: what `rank` for the top 10 costs
             whole.push(times.last().copied().unwrap_or(0.0) + t.elapsed().as_secs_f64() * 1e3);
+            // what the query read (the true-distance check below reads more)
+            read = match (read, read_before, disk_read_bytes()) {
+                (Some(r), Some(before), Some(now)) => Some(r + now.saturating_sub(before)),
+                _ => None,
+            };
             same += usize::from(r == *want);
             let (mut a, mut b) = (r.clone(), want.clone());
             a.sort_unstable();
@@ -223,13 +232,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             format!("{same_true} of {queries}")
         };
         println!(
-            "| {} | {} | {} | {} | {:.1} | {:.1} | {:.4} | {same} / {same_set} of {queries} | {at_true} |",
+            "| {} | {} | {} | {} | {:.1} | {:.1} | {} | {:.4} | {same} / {same_set} of {queries} | {at_true} |",
             effort.coarse_probes,
             effort.fine_probes,
             effort.rerank,
             if effort.settle { "yes" } else { "no" },
             median(times),
             median(whole),
+            read.map_or("—".to_string(), |r| format!(
+                "{:.2}",
+                r as f64 / 1e6 / queries.max(1) as f64
+            )),
             recalls.iter().sum::<f64>() / recalls.len().max(1) as f64,
         );
     }

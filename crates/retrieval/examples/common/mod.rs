@@ -33,6 +33,14 @@ pub fn resident_mb() -> Option<f64> {
     Some(kb / 1e3)
 }
 
+/// Bytes this process has had read from the storage device so far (Linux, from
+/// `/proc/self/io`: reads served by the page cache are not counted).
+pub fn disk_read_bytes() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/self/io").ok()?;
+    let line = s.lines().find(|l| l.starts_with("read_bytes:"))?;
+    line.split_whitespace().nth(1)?.parse().ok()
+}
+
 /// The median (the upper one of an even count) of a non-empty list.
 pub fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
