@@ -28,8 +28,9 @@
 //! the few whose whole-code distances are too close to the `k`-th place to tell apart (within
 //! half a level per value) are settled by their descriptors ([`Settle`]). Near-duplicate
 //! parts fill many neighbouring cells, all of them needed for the `k` nearest; cells of other
-//! parts have far boxes, and the scan stops at the first of them. Codes are read instead of the `n` descriptors, so that an index larger than memory is
-//! searched from the inverted file alone. A true neighbour is missed when it lies in a cell not
+//! parts have far boxes, and the scan stops at the first of them. Codes are read instead of
+//! the `n` descriptors, so that an index larger than memory is searched from the inverted
+//! file alone. A true neighbour is missed when it lies in a cell not
 //! examined, or when rounding puts it beyond the re-ranked ones, so recall is measured, not
 //! guaranteed ([`SearchEffort`] trades speed for it).
 //!

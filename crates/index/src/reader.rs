@@ -42,6 +42,7 @@
 //! Distances are squared Euclidean: recomputed from the stored descriptors for the exact
 //! search, as the codes give them for the approximate one ([`ComponentMatch::distance_sq`]).
 
+use std::borrow::Cow;
 use std::num::NonZero;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, OnceLock};
@@ -736,16 +737,19 @@ impl<const D: usize> IndexReader<D> {
             return Ok(Arc::clone(r));
         }
         let slot = self.slots[i];
-        // A slot without a record points into a mapped segment.
-        let m = self
-            .mapped
-            .get(slot.segment as usize)
-            .ok_or_else(|| IndexError::InvalidQuery {
-                reason: format!("shape {} has no record", slot.id),
-            })?;
+        let m = self.mapped_of(slot)?;
         crate::mapped::record::<D>(m.payload(), &m.table, slot.position as usize)
             .map(Arc::new)
             .map_err(|msg| m.malformed(msg))
+    }
+
+    /// The mapped segment of `slot`, a slot without a record (which points into one).
+    fn mapped_of(&self, slot: Slot) -> Result<&MappedSegment> {
+        self.mapped
+            .get(slot.segment as usize)
+            .ok_or_else(|| IndexError::InvalidQuery {
+                reason: format!("shape {} has no record", slot.id),
+            })
     }
 
     /// All live shapes, by increasing id (records of mapped segments decoded, in parallel).
@@ -775,12 +779,12 @@ impl<const D: usize> IndexReader<D> {
     }
 
     /// The component descriptors of shape `id`, if it is live in this snapshot, in component
-    /// order: read in place from a mapped segment's descriptor block without decoding the
+    /// order: borrowed in place from a mapped segment's descriptor block without decoding the
     /// record (and so without its checksum, as the nearest-neighbour search reads them; a
     /// damaged record is still found by [`IndexReader::get`]).
     ///
     /// Errors: [`IndexError::Corrupt`] if the segment's table places them outside its block.
-    pub fn descriptors(&self, id: ShapeId) -> Result<Option<Vec<[f32; D]>>> {
+    pub fn descriptors(&self, id: ShapeId) -> Result<Option<Cow<'_, [[f32; D]]>>> {
         let Ok(i) = self.slots.binary_search_by_key(&id, |s| s.id) else {
             return Ok(None);
         };
@@ -788,20 +792,15 @@ impl<const D: usize> IndexReader<D> {
             return Ok(Some(r.components.iter().map(|c| c.descriptor).collect()));
         }
         let slot = self.slots[i];
-        let m = self
-            .mapped
-            .get(slot.segment as usize)
-            .ok_or_else(|| IndexError::InvalidQuery {
-                reason: format!("shape {} has no record", slot.id),
-            })?;
+        let m = self.mapped_of(slot)?;
         let flat = m.descriptors(slot.position as usize, D).ok_or_else(|| {
             m.malformed(format!(
                 "the descriptors of shape {id} are beyond the descriptor block"
             ))
         })?;
-        let (arrays, rest) = flat.as_chunks::<D>();
-        debug_assert!(rest.is_empty());
-        Ok(Some(arrays.to_vec()))
+        // `descriptors` gives whole records' descriptors, `D` values each
+        let (arrays, _) = flat.as_chunks::<D>();
+        Ok(Some(Cow::Borrowed(arrays)))
     }
 
     /// Asks the system to start reading the records of `ids` that lie in memory-mapped

@@ -290,7 +290,10 @@ fn descriptors_alone_are_the_records() {
         for s in reader.shapes().unwrap() {
             let want: Vec<[f32; D]> = s.record.components.iter().map(|c| c.descriptor).collect();
             assert!(!want.is_empty());
-            assert_eq!(reader.descriptors(s.id).unwrap(), Some(want));
+            assert_eq!(
+                reader.descriptors(s.id).unwrap().as_deref(),
+                Some(&want[..])
+            );
         }
         let absent = keycomp_index::ShapeId(reader.ids().max().unwrap().0 + 1);
         assert_eq!(reader.descriptors(absent).unwrap(), None);

@@ -1,9 +1,10 @@
 //! Where the approximate search loses the exact ranking's top 10, and what each search effort
 //! costs: for several [`SearchEffort`]s (fine cells scanned, re-ranked candidates), the search
 //! of a query's parts, that search and the ranking of the top 10 (`rank`'s two steps), the
-//! recall of each part's `CANDIDATES_PER_COMPONENT` exact neighbours, and how many queries get the exact ranking's top 10: with the neighbours as the inverted
-//! file gives them, and with the same neighbours at their true distances (which separates the
-//! neighbours missed from the rounding of the distances that vote for candidates).
+//! recall of each part's `CANDIDATES_PER_COMPONENT` exact neighbours, and how many queries get
+//! the exact ranking's top 10: with the neighbours as the inverted file gives them, and with
+//! the same neighbours at their true distances (which separates the neighbours missed from
+//! the rounding of the distances that vote for candidates).
 //!
 //! The index is grown as `query_scale` grows it (copies of real records, every descriptor
 //! value moved by up to ±0.01), from the first SOURCES shapes of the source index only: with
@@ -23,8 +24,8 @@
 //! queries, so that the parts of the index they read come from the disk, as for a process's
 //! first queries on an index larger than memory. With `TRUTH=FILE`, the exact results are read
 //! from FILE when it holds them for the same queries (the same index: the queries are its
-//! records moved), else computed and written there
-//! (they take about as long as `query_scale`'s exact search). Prints a markdown table; medians
+//! records moved), else computed and written there (they take about as long as
+//! `query_scale`'s exact search). Prints a markdown table; medians
 //! over the queries, and the bytes read from the disk per query (mean, Linux; the reads the
 //! page cache serves are not counted).
 

@@ -323,6 +323,48 @@ fn part_weight(weights: &[f64], i: usize) -> f64 {
         .unwrap_or(1.0)
 }
 
+/// The sum of the query's part weights ([`part_weight`] of each of its `mq` parts): the
+/// score's denominator.
+fn total_weight(mq: usize, weights: &[f64]) -> f64 {
+    (0..mq).map(|i| part_weight(weights, i)).sum()
+}
+
+/// The similarity of two parts at descriptor distance `dd`, `max(0, 1 − dd / d_max)` (step 1
+/// of *Steps*), as the score sums it.
+fn similarity(dd: f32, params: &MatchParams) -> f64 {
+    let max_d = params.max_distance.max(f32::MIN_POSITIVE);
+    (1.0 - (dd / max_d) as f64).max(0.0)
+}
+
+/// The score of the pairs `matches` of a query of `mq` parts: their weighted similarities,
+/// match `i` scaled by `pose[i]` (1 beyond `pose`), over the query's total weight (step 7 of
+/// *Steps*). With every assigned pair ([`pair`]) and no factor, it bounds the score of the
+/// whole match from above: the checks only drop pairs, and the pose check and verification
+/// only scale the score down.
+pub(crate) fn pairs_score(
+    mq: usize,
+    matches: &[ComponentMatch],
+    pose: &[f64],
+    params: &MatchParams,
+    weights: &[f64],
+) -> f64 {
+    let total = total_weight(mq, weights);
+    if total > 0.0 {
+        matches
+            .iter()
+            .enumerate()
+            .map(|(i, m)| {
+                similarity(m.distance, params)
+                    * part_weight(weights, m.query)
+                    * pose.get(i).copied().unwrap_or(1.0)
+            })
+            .sum::<f64>()
+            / total
+    } else {
+        0.0
+    }
+}
+
 /// Descriptor distances of every query part to every target part, `mq × mt` row-major.
 pub(crate) fn distances(query: &[Descriptor], target: &[Descriptor]) -> Vec<f32> {
     let mut d = Vec::with_capacity(query.len() * target.len());
@@ -348,12 +390,11 @@ pub(crate) fn score_bound(
     weights: &[f64],
 ) -> f64 {
     let weight_of = |i: usize| part_weight(weights, i);
-    let max_d = params.max_distance.max(f32::MIN_POSITIVE);
-    let total: f64 = (0..mq).map(weight_of).sum();
+    let total = total_weight(mq, weights);
     if total <= 0.0 || mt == 0 {
         return 0.0;
     }
-    let sim = |dd: f32| (1.0 - (dd / max_d) as f64).max(0.0);
+    let sim = |dd: f32| similarity(dd, params);
     let rows: f64 = (0..mq)
         .map(|i| {
             let best = d[i * mt..(i + 1) * mt]
@@ -467,29 +508,6 @@ pub(crate) fn pair(
         .collect();
     matches.sort_by_key(|m| m.query);
     Some(matches)
-}
-
-/// An upper bound of the score of a match whose assigned pairs are `matches` ([`pair`]): the
-/// score with every pair kept and every factor 1 (the checks only drop pairs, and the pose
-/// check and verification only scale the score down). Computed as [`finish`] sums the score.
-pub(crate) fn pairs_bound(
-    mq: usize,
-    matches: &[ComponentMatch],
-    params: &MatchParams,
-    weights: &[f64],
-) -> f64 {
-    let weight_of = |i: usize| part_weight(weights, i);
-    let max_d = params.max_distance.max(f32::MIN_POSITIVE);
-    let total: f64 = (0..mq).map(weight_of).sum();
-    if total > 0.0 {
-        matches
-            .iter()
-            .map(|m| (1.0 - (m.distance / max_d) as f64).max(0.0) * weight_of(m.query))
-            .sum::<f64>()
-            / total
-    } else {
-        0.0
-    }
 }
 
 /// Steps 3–4 of [`match_distances`] on the assigned pairs `matches` ([`pair`]).
@@ -616,7 +634,6 @@ pub(crate) fn finish(
         scale,
     } = assigned;
     let (mq, mt) = (query.descriptors.len(), target.descriptors.len());
-    let weight_of = |i: usize| part_weight(weights, i);
     let max_d = params.max_distance.max(f32::MIN_POSITIVE);
     let k0 = matches.len();
     // geometric verification: the query aligned onto the target by its parts' centres and
@@ -718,21 +735,7 @@ pub(crate) fn finish(
             }
         }
     }
-    let total: f64 = (0..mq).map(weight_of).sum();
-    let score = if total > 0.0 {
-        matches
-            .iter()
-            .enumerate()
-            .map(|(i, m)| {
-                (1.0 - (m.distance / max_d) as f64).max(0.0)
-                    * weight_of(m.query)
-                    * pose.get(i).copied().unwrap_or(1.0)
-            })
-            .sum::<f64>()
-            / total
-    } else {
-        0.0
-    };
+    let score = pairs_score(mq, &matches, &pose, params, weights);
     // a verification that found no alignment counts as fitness 0
     let fitness = verifying.then(|| verified.map_or(0.0, |v| v.fitness));
     let score = score * (1.0 - gamma * (1.0 - fitness.unwrap_or(1.0)));
@@ -990,7 +993,7 @@ mod tests {
             let d = distances(&dq, &dt);
             let bound = score_bound(mq, mt, &d, &params, &weights);
             let pairs = pair(mq, mt, &d, &params, &weights).unwrap_or_default();
-            let assigned = pairs_bound(mq, &pairs, &params, &weights);
+            let assigned = pairs_score(mq, &pairs, &[], &params, &weights);
             proptest::prop_assert!(m.score <= assigned + 1e-12, "score {} assigned {}", m.score, assigned);
             proptest::prop_assert!(assigned <= bound + 1e-12, "assigned {} bound {}", assigned, bound);
         }

@@ -190,8 +190,7 @@ pub fn rank_hypotheses(
 ///
 /// Best-first branch and bound over two upper bounds of a candidate's score: the matrix of
 /// descriptor distances gives one ([`crate::score_bound`]: every query part at its best
-/// similarity), the assignment a tighter one ([`crate::pairs_bound`]: every assigned pair
-/// kept). The open candidate of highest bound is taken next (a batch of a few at a time, in
+/// similarity), the assignment a tighter one ([`crate::pairs_score`] of every assigned pair). The open candidate of highest bound is taken next (a batch of a few at a time, in
 /// parallel): assigned if only its first bound is known, then put back with the second;
 /// otherwise its record is read and its match finished (the layout check). It stops when the
 /// highest open bound is below the `k`-th best score found, so the layout check, the costliest
@@ -205,9 +204,9 @@ fn match_candidates(
     weights: &[f64],
 ) -> Result<Vec<Ranked>, IndexError> {
     /// A candidate as the bounds need it: its descriptors, read in place, not its record.
-    struct Candidate {
+    struct Candidate<'r> {
         id: ShapeId,
-        descriptors: Vec<Descriptor>,
+        descriptors: std::borrow::Cow<'r, [Descriptor]>,
         d: Vec<f32>,
         bound: f64,
     }
@@ -238,7 +237,7 @@ fn match_candidates(
         })
         .collect::<Result<_, IndexError>>()?;
     let candidates: Vec<Candidate> = candidates.into_iter().flatten().collect();
-    fn view<'c>(c: &'c Candidate, l: &'c Loaded, params: &MatchParams) -> ShapeView<'c> {
+    fn view<'c>(c: &'c Candidate<'_>, l: &'c Loaded, params: &MatchParams) -> ShapeView<'c> {
         ShapeView {
             descriptors: &c.descriptors,
             layout: &l.rec.layout,
@@ -295,7 +294,7 @@ fn match_candidates(
             let pairs = crate::pair(mq, c.descriptors.len(), &c.d, &first, weights);
             let bound = pairs
                 .as_ref()
-                .map_or(0.0, |m| crate::pairs_bound(mq, m, &first, weights));
+                .map_or(0.0, |m| crate::pairs_score(mq, m, &[], &first, weights));
             return Ok(Step::Assigned(Open {
                 bound: bound.min(o.bound),
                 pairs: Some(pairs),
@@ -348,14 +347,16 @@ fn match_candidates(
         .collect();
     // (position in `candidates`, its record, its match and assignment)
     let mut ranked: Vec<(usize, Loaded, Scored)> = Vec::new();
+    // the k-th best score so far, once k are matched
+    let mut kth: Option<f64> = None;
+    // a bound below the k-th best score (by more than rounding) cannot enter the top k
+    fn can_enter(bound: f64, kth: Option<f64>) -> bool {
+        kth.is_none_or(|kth| bound + 1e-9 >= kth)
+    }
     loop {
-        // the k-th best score so far; a bound below it (by more than rounding) cannot enter
-        let kth = (ranked.len() >= k_first).then(|| ranked[k_first - 1].2.0.score);
         let mut work = Vec::with_capacity(batch);
         while work.len() < batch
-            && open
-                .peek()
-                .is_some_and(|o| kth.is_none_or(|kth| o.bound + 1e-9 >= kth))
+            && open.peek().is_some_and(|o| can_enter(o.bound, kth))
             && let Some(o) = open.pop()
         {
             work.push(o);
@@ -375,12 +376,12 @@ fn match_candidates(
             }
         }
         by_score(&mut ranked);
+        kth = (ranked.len() >= k_first).then(|| ranked[k_first - 1].2.0.score);
         // a record is read when its assignment's bound can still enter the top k: have the
         // system start reading it while others are matched
-        let kth = (ranked.len() >= k_first).then(|| ranked[k_first - 1].2.0.score);
         let wanted: Vec<ShapeId> = assigned
             .iter()
-            .filter(|o| kth.is_none_or(|kth| o.bound + 1e-9 >= kth))
+            .filter(|o| can_enter(o.bound, kth))
             .map(|o| o.id)
             .collect();
         reader.prefetch(&wanted);

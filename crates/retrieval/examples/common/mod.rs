@@ -25,20 +25,23 @@ pub fn grown_copy(src: &[ShapeRecord<DIM>], i: u64, jitter: &mut impl Rng) -> Sh
     r
 }
 
+/// The first number after `key` in the Linux process file `/proc/self/FILE` (`None`
+/// elsewhere).
+fn proc_number(file: &str, key: &str) -> Option<u64> {
+    let s = std::fs::read_to_string(format!("/proc/self/{file}")).ok()?;
+    let line = s.lines().find(|l| l.starts_with(key))?;
+    line.split_whitespace().nth(1)?.parse().ok()
+}
+
 /// The process's resident memory in MB (Linux; `None` elsewhere).
 pub fn resident_mb() -> Option<f64> {
-    let s = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = s.lines().find(|l| l.starts_with("VmRSS:"))?;
-    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kb / 1e3)
+    Some(proc_number("status", "VmRSS:")? as f64 / 1e3)
 }
 
 /// Bytes this process has had read from the storage device so far (Linux, from
 /// `/proc/self/io`: reads served by the page cache are not counted).
 pub fn disk_read_bytes() -> Option<u64> {
-    let s = std::fs::read_to_string("/proc/self/io").ok()?;
-    let line = s.lines().find(|l| l.starts_with("read_bytes:"))?;
-    line.split_whitespace().nth(1)?.parse().ok()
+    proc_number("io", "read_bytes:")
 }
 
 /// The median (the upper one of an even count) of a non-empty list.
