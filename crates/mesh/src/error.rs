@@ -15,7 +15,9 @@ pub enum Location {
     Vertex(u64),
     /// A 0-based face index (in the file's face order).
     Face(u64),
-    /// A 0-based element of a named PLY element (`vertex`, `face`, `tristrips`).
+    /// A 0-based point of a point cloud (a binary PCD file's point record).
+    Point(u64),
+    /// A 0-based element of a named PLY element (`vertex`, `face`, `tristrips`, `range_grid`).
     Element {
         /// The element's name in the PLY header.
         name: String,
@@ -31,10 +33,14 @@ impl fmt::Display for Location {
             Location::Byte(b) => write!(f, "byte {b}"),
             Location::Vertex(v) => write!(f, "vertex {v}"),
             Location::Face(i) => write!(f, "face {i}"),
+            Location::Point(i) => write!(f, "point {i}"),
             Location::Element { name, index } => write!(f, "{name} element {index}"),
         }
     }
 }
+
+/// The extensions [`crate::Format::from_extension`] knows, for messages.
+const SUPPORTED: &str = ".off, .obj, .ply, .stl, .gltf, .glb, .xyz, .pts, .pcd";
 
 /// What went wrong.
 #[derive(Debug)]
@@ -74,12 +80,18 @@ pub enum ErrorKind {
     },
     /// A coordinate is NaN or infinite.
     NonFiniteCoordinate,
-    /// The mesh has no vertices.
+    /// There are no vertices (a mesh) or points (a point cloud).
     NoVertices,
-    /// The mesh has no usable faces (point clouds are not supported).
+    /// The mesh has no usable faces.
     NoFaces {
         /// How many faces were dropped as degenerate before none was left.
         dropped: u64,
+    },
+    /// The file holds points and no faces: returned by [`crate::read_mesh`], which needs a
+    /// mesh; [`crate::read_input`] reads such a file as a [`crate::PointCloud`].
+    PointCloud {
+        /// How many points the file holds.
+        points: usize,
     },
     /// Any other problem, described in words.
     Other(String),
@@ -91,11 +103,11 @@ impl fmt::Display for ErrorKind {
             ErrorKind::Io(e) => write!(f, "{e}"),
             ErrorKind::UnknownFormat { extension } if extension.is_empty() => write!(
                 f,
-                "no file extension: cannot tell the format (supported: .off, .obj, .ply, .stl, .gltf, .glb)"
+                "no file extension: cannot tell the format (supported: {SUPPORTED})"
             ),
             ErrorKind::UnknownFormat { extension } => write!(
                 f,
-                "unknown mesh format '.{extension}' (supported: .off, .obj, .ply, .stl, .gltf, .glb)"
+                "unknown file format '.{extension}' (supported: {SUPPORTED})"
             ),
             ErrorKind::Empty => write!(f, "the file is empty"),
             ErrorKind::Truncated { expected } => {
@@ -115,13 +127,17 @@ impl fmt::Display for ErrorKind {
                 "vertex index {index} is out of range (the mesh has {vertices} vertices)"
             ),
             ErrorKind::NonFiniteCoordinate => write!(f, "coordinate is NaN or infinite"),
-            ErrorKind::NoVertices => write!(f, "the mesh has no vertices"),
-            ErrorKind::NoFaces { dropped: 0 } => {
-                write!(f, "the mesh has no faces (point clouds are not supported)")
-            }
+            ErrorKind::NoVertices => write!(f, "there are no vertices or points"),
+            ErrorKind::NoFaces { dropped: 0 } => write!(f, "the mesh has no faces"),
             ErrorKind::NoFaces { dropped } => write!(
                 f,
                 "the mesh has no usable faces: all {dropped} were degenerate (repeated vertex or zero area)"
+            ),
+            ErrorKind::PointCloud { points } => write!(
+                f,
+                "the file holds {points} points and no faces: it is a point cloud, not a mesh; \
+                 keycomp reconstructs a surface from points when analysing (`detect`, \
+                 `index add`, `query`, `match`)"
             ),
             ErrorKind::Other(m) => write!(f, "{m}"),
         }

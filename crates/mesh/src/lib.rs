@@ -1,16 +1,25 @@
-//! Triangle meshes for keycomp: reading and validating OFF, OBJ, PLY and STL files, writing OFF
-//! and coloured PLY, geometry (areas, bounding box, unit-area normalisation), adjacency and
-//! synthetic shapes generated in code, and simplification by half-edge collapse ([`simplify`]).
+//! Triangle meshes for keycomp: reading and validating OFF, OBJ, PLY, STL and glTF meshes and
+//! the point clouds and range scans that scanners give (PLY range grids and vertex-only PLY,
+//! XYZ, PTS, PCD), writing OFF, coloured PLY and GLB, geometry (areas, bounding box, unit-area
+//! normalisation), adjacency and synthetic shapes generated in code, range-grid triangulation
+//! ([`grid`]) and simplification by half-edge collapse ([`simplify`]).
+//!
+//! Two entry points read files: [`read_mesh`] when a mesh is needed (range grids come
+//! triangulated; a file of points only is an [`ErrorKind::PointCloud`] error), [`read_input`]
+//! for anything a file holds, a mesh or a [`PointCloud`] ([`Geometry`]), with what it was
+//! ([`Source`]) and what was noticed on the way (warnings).
 //!
 //! Vertex ids are the file's own vertex order: readers never weld or reorder vertices (STL, which
 //! has no shared vertices, is the one exception: its corners are merged by exact position, in
-//! order of first appearance). Faces with a repeated index or zero area are dropped and counted in
-//! a [`Repairs`] report; unreferenced vertices are kept. Non-manifold edges, open boundaries and
-//! several connected pieces are valid input.
+//! order of first appearance; an organised PCD cloud, whose invalid points are dropped, the
+//! other). Faces with a repeated index or zero area are dropped and counted in a [`Repairs`]
+//! report; unreferenced vertices are kept. Non-manifold edges, open boundaries and several
+//! connected pieces are valid input.
 
 pub mod cut;
 mod error;
 pub mod geometry;
+pub mod grid;
 pub mod io;
 pub mod sample;
 pub mod simplify;
@@ -19,9 +28,10 @@ pub mod synth;
 mod topology;
 
 pub use error::{ErrorKind, Location, MeshError};
+pub use grid::triangulate_grid;
 pub use io::{
-    Format, LoadedMesh, read_mesh, read_mesh_from_bytes, write_glb, write_off, write_off_to,
-    write_ply_colored,
+    Format, Geometry, LoadedInput, LoadedMesh, Source, read_input, read_input_from_bytes,
+    read_mesh, read_mesh_from_bytes, write_glb, write_off, write_off_to, write_ply_colored,
 };
 pub use nalgebra::{Point3, Vector3};
 pub use topology::Topology;
@@ -40,6 +50,25 @@ pub struct Mesh {
     pub positions: Vec<Point3<f64>>,
     /// Triangles as vertex ids.
     pub faces: Vec<[VertexId; 3]>,
+}
+
+/// Points without connectivity: a scan or a point cloud as read from a file.
+///
+/// Positions are finite; normals, when the file gives them (and every one is finite), have one
+/// entry per point, as stored (not normalised).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PointCloud {
+    /// Point positions, in the file's order (invalid points dropped where a format marks them).
+    pub positions: Vec<Point3<f64>>,
+    /// Per-point normals, when the file has them.
+    pub normals: Option<Vec<Vector3<f64>>>,
+}
+
+impl PointCloud {
+    /// Number of points.
+    pub fn num_points(&self) -> usize {
+        self.positions.len()
+    }
 }
 
 /// What [`Mesh::from_raw`] changed or noticed while validating raw data. Nothing here is an

@@ -1,5 +1,6 @@
-//! Writes the starting corpus of every fuzz target into `fuzz/seeds/TARGET/` (small meshes in
-//! each format, an index's segment and manifest payloads, a map file), all made here in code.
+//! Writes the starting corpus of every fuzz target into `fuzz/seeds/TARGET/` (small meshes, range
+//! grids and point clouds in each format, an index's segment and manifest payloads, a map file),
+//! all made here in code.
 //! Run with `cargo run --bin make_seeds` from `fuzz/`.
 
 use std::fs;
@@ -21,6 +22,122 @@ const V: [[f32; 3]; 4] = [
     [0.0, 0.0, 1.0],
 ];
 const F: [[u32; 3]; 4] = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]];
+
+/// Literal-only LZF (runs of at most 32 bytes): valid input for PCD's binary_compressed.
+fn lzf_literals(data: &[u8]) -> Vec<u8> {
+    let mut out = Vec::new();
+    for run in data.chunks(32) {
+        out.push((run.len() - 1) as u8);
+        out.extend_from_slice(run);
+    }
+    out
+}
+
+/// Range grids and point clouds: PLY range grid and vertex-only PLY, XYZ, PTS, PCD in its three
+/// encodings, organised and not.
+fn scans_and_clouds() {
+    // A 3 x 3 range grid, the centre cell absent, with a header line that is not a keyword.
+    let mut grid = String::from(
+        "ply\nformat ascii 1.0\nobj_info is_interlaced 1\nobj_info num_cols 3\n\
+         obj_info num_rows 3\nbye\nelement vertex 8\nproperty float x\nproperty float y\n\
+         property float z\nelement range_grid 9\nproperty list uchar int vertex_indices\n\
+         end_header\n",
+    );
+    let mut cells = String::new();
+    let mut v = 0;
+    for r in 0..3 {
+        for c in 0..3 {
+            if (r, c) == (1, 1) {
+                cells += "0\n";
+            } else {
+                grid += &format!("{} {} {}\n", c, r, (r * c) as f32 * 0.1);
+                cells += &format!("1 {v}\n");
+                v += 1;
+            }
+        }
+    }
+    grid += &cells;
+    put("mesh_ply", "grid.ply", grid.as_bytes());
+    let mut points = b"ply\nformat binary_little_endian 1.0\nelement vertex 4\nproperty float x\n\
+property float y\nproperty float z\nproperty float nx\nproperty float ny\nproperty float nz\n\
+end_header\n"
+        .to_vec();
+    for p in V {
+        for c in p.iter().chain(&[0.0, 0.0, 1.0]) {
+            points.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    put("mesh_ply", "points-binary.ply", &points);
+
+    put(
+        "mesh_xyz",
+        "normals.xyz",
+        b"# x y z nx ny nz\n0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n0 0 1 1 0 0\n",
+    );
+    put(
+        "mesh_xyz",
+        "names-commas.xyz",
+        b"X,Y,Z\n0.5, 0, 0\n// a comment\n1,0,0.25\n\n0,1e-3,0\n",
+    );
+    put(
+        "mesh_pts",
+        "scan.pts",
+        b"3\n0 0 0 -1200 10 20 30\n1 0 0 -1100 10 20 30\n0 1 0 -900 10 20 30\n2\n5 5 5 0 0 0 0\n6 5 5 0 0 0 0\n",
+    );
+
+    // PCD: 2 rows of 3 points, the middle of row 1 invalid (NaN); x y z as floats, rgb, an
+    // intensity byte.
+    let pts: [[f32; 3]; 6] = [
+        [0.0, 0.0, 1.0],
+        [0.5, 0.0, 1.0],
+        [1.0, 0.0, 1.1],
+        [0.0, 0.5, 1.0],
+        [f32::NAN, f32::NAN, f32::NAN],
+        [1.0, 0.5, 1.2],
+    ];
+    let head = |data: &str, width: usize, height: usize| {
+        format!(
+            "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z rgb intensity\n\
+             SIZE 4 4 4 4 1\nTYPE F F F U U\nCOUNT 1 1 1 1 1\nWIDTH {width}\nHEIGHT {height}\n\
+             VIEWPOINT 0 0 0 1 0 0 0\nPOINTS {}\nDATA {data}\n",
+            width * height
+        )
+        .into_bytes()
+    };
+    let mut ascii = head("ascii", 3, 2);
+    let mut binary = head("binary", 6, 1);
+    let mut fields: [Vec<u8>; 5] = Default::default();
+    for (i, p) in pts.iter().enumerate() {
+        let xyz: Vec<String> = p
+            .iter()
+            .map(|c| {
+                if c.is_nan() {
+                    "nan".into()
+                } else {
+                    c.to_string()
+                }
+            })
+            .collect();
+        ascii.extend(format!("{} {} {}\n", xyz.join(" "), 4_286_611_584u32, i).bytes());
+        for (k, c) in p.iter().enumerate() {
+            binary.extend_from_slice(&c.to_le_bytes());
+            fields[k].extend_from_slice(&c.to_le_bytes());
+        }
+        binary.extend_from_slice(&4_286_611_584u32.to_le_bytes());
+        binary.push(i as u8);
+        fields[3].extend_from_slice(&4_286_611_584u32.to_le_bytes());
+        fields[4].push(i as u8);
+    }
+    put("mesh_pcd", "organised-ascii.pcd", &ascii);
+    put("mesh_pcd", "unorganised-binary.pcd", &binary);
+    let raw = fields.concat();
+    let packed = lzf_literals(&raw);
+    let mut compressed = head("binary_compressed", 3, 2);
+    compressed.extend_from_slice(&(packed.len() as u32).to_le_bytes());
+    compressed.extend_from_slice(&(raw.len() as u32).to_le_bytes());
+    compressed.extend_from_slice(&packed);
+    put("mesh_pcd", "organised-compressed.pcd", &compressed);
+}
 
 fn main() {
     let mut off = String::from("OFF\n4 4 0\n");
@@ -108,6 +225,7 @@ end_header\n"
         br#"{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"children":[1],"translation":[1,0,0]},{"mesh":0,"scale":[-1,1,1]}],"meshes":[{"primitives":[{"attributes":{"POSITION":0},"mode":5}]}],"buffers":[{"byteLength":48,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAAAACAPwAAgD8AAAAA"}],"bufferViews":[{"buffer":0,"byteLength":48}],"accessors":[{"bufferView":0,"componentType":5126,"count":4,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}]}"#,
     );
     put("mesh_stl", "tetra-binary.stl", &stl_bin);
+    scans_and_clouds();
 
     // An index of three synthetic shapes, one removed: its segment and manifest payloads.
     let tmp = std::env::temp_dir().join(format!("keycomp-fuzz-seeds-{}", std::process::id()));

@@ -408,3 +408,123 @@ pub(crate) fn glb_of(m: &Mesh) -> Vec<u8> {
     );
     glb(&json, &bin)
 }
+
+/// PCD data encodings.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum PcdData {
+    Ascii,
+    Binary,
+    Compressed,
+}
+
+/// A PCD v0.7 file as PCL writes it, `height` rows of `width` points (NaN coordinates for
+/// invalid points), with fields of every kind around the ones the reader uses: `x` F4, `y` F8,
+/// `z` F4, `rgb` U4, `fpfh` F4 x 3, `intensity` U1, the normals as F4 when given, `ring` I2.
+pub(crate) fn pcd(
+    points: &[[f64; 3]],
+    normals: Option<&[[f64; 3]]>,
+    width: usize,
+    height: usize,
+    data: PcdData,
+) -> Vec<u8> {
+    assert_eq!(points.len(), width * height);
+    // (name, TYPE, SIZE, COUNT, value of point i and component k)
+    type Value<'a> = Box<dyn Fn(usize, usize) -> f64 + 'a>;
+    type Field<'a> = (&'a str, char, usize, usize, Value<'a>);
+    let mut fields: Vec<Field> = vec![
+        ("x", 'F', 4, 1, Box::new(|i, _| points[i][0])),
+        ("y", 'F', 8, 1, Box::new(|i, _| points[i][1])),
+        ("z", 'F', 4, 1, Box::new(|i, _| points[i][2])),
+        ("rgb", 'U', 4, 1, Box::new(|i, _| (i * 65793) as f64)),
+        ("fpfh", 'F', 4, 3, Box::new(|i, k| (i + k) as f64 * 0.5)),
+        ("intensity", 'U', 1, 1, Box::new(|i, _| (i % 256) as f64)),
+    ];
+    if let Some(n) = normals {
+        fields.push(("normal_x", 'F', 4, 1, Box::new(move |i, _| n[i][0])));
+        fields.push(("normal_y", 'F', 4, 1, Box::new(move |i, _| n[i][1])));
+        fields.push(("normal_z", 'F', 4, 1, Box::new(move |i, _| n[i][2])));
+    }
+    fields.push(("ring", 'I', 2, 1, Box::new(|i, _| -(i as f64))));
+    let column = |f: &dyn Fn(&Field) -> String| fields.iter().map(f).collect::<Vec<_>>().join(" ");
+    let encoding = match data {
+        PcdData::Ascii => "ascii",
+        PcdData::Binary => "binary",
+        PcdData::Compressed => "binary_compressed",
+    };
+    let mut out = format!(
+        "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS {}\nSIZE {}\nTYPE {}\n\
+         COUNT {}\nWIDTH {width}\nHEIGHT {height}\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS {}\nDATA {encoding}\n",
+        column(&|f| f.0.to_string()),
+        column(&|f| f.2.to_string()),
+        column(&|f| f.1.to_string()),
+        column(&|f| f.3.to_string()),
+        points.len()
+    )
+    .into_bytes();
+    let encode = |t: char, size: usize, v: f64| -> Vec<u8> {
+        match (t, size) {
+            ('F', 4) => (v as f32).to_le_bytes().to_vec(),
+            ('F', _) => v.to_le_bytes().to_vec(),
+            ('U', 1) => vec![v as u8],
+            ('U', _) => (v as u32).to_le_bytes().to_vec(),
+            _ => (v as i16).to_le_bytes().to_vec(),
+        }
+    };
+    match data {
+        PcdData::Ascii => {
+            for i in 0..points.len() {
+                let mut values = Vec::new();
+                for (_, _, _, count, value) in &fields {
+                    for k in 0..*count {
+                        let v = value(i, k);
+                        values.push(if v.is_nan() {
+                            "nan".into()
+                        } else {
+                            v.to_string()
+                        });
+                    }
+                }
+                out.extend(values.join(" ").bytes());
+                out.push(b'\n');
+            }
+        }
+        PcdData::Binary => {
+            for i in 0..points.len() {
+                for (_, t, size, count, value) in &fields {
+                    for k in 0..*count {
+                        out.extend(encode(*t, *size, value(i, k)));
+                    }
+                }
+            }
+        }
+        PcdData::Compressed => {
+            let mut raw = Vec::new();
+            for (_, t, size, count, value) in &fields {
+                for i in 0..points.len() {
+                    for k in 0..*count {
+                        raw.extend(encode(*t, *size, value(i, k)));
+                    }
+                }
+            }
+            let packed = super::lzf::compress(&raw);
+            out.extend((packed.len() as u32).to_le_bytes());
+            out.extend((raw.len() as u32).to_le_bytes());
+            out.extend(packed);
+        }
+    }
+    out
+}
+
+/// An XYZ file of the points (with normals as columns 4-6 when given), separated as `sep`.
+pub(crate) fn xyz(points: &[[f64; 3]], normals: Option<&[[f64; 3]]>, sep: &str) -> Vec<u8> {
+    let mut out = String::from("# written by a test\n");
+    for (i, p) in points.iter().enumerate() {
+        let mut values: Vec<f64> = p.to_vec();
+        if let Some(n) = normals {
+            values.extend(n[i]);
+        }
+        let v: Vec<String> = values.iter().map(f64::to_string).collect();
+        writeln!(out, "{}", v.join(sep)).unwrap();
+    }
+    out.into_bytes()
+}

@@ -370,7 +370,7 @@ mod tests {
     fn no_faces_and_degenerate_faces() {
         let e =
             read_mesh_from_bytes(b"OFF\n3 0 0\n0 0 0\n1 0 0\n0 1 0\n", Format::Off).unwrap_err();
-        assert!(matches!(e.kind, ErrorKind::NoFaces { dropped: 0 }));
+        assert!(matches!(e.kind, ErrorKind::PointCloud { points: 3 }));
         let m = read_mesh_from_bytes(
             b"OFF\n4 3 0\n0 0 0\n1 0 0\n0 1 0\n2 0 0\n3 0 1 2\n3 0 0 1\n3 0 1 3\n",
             Format::Off,

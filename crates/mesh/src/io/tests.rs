@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use proptest::prelude::*;
 
-use super::fixtures::{self, PlyEncoding, PlyFaces};
+use super::fixtures::{self, PcdData, PlyEncoding, PlyFaces};
 use super::*;
 use crate::synth::{grid, icosphere, protrusion_sphere, torus};
 use crate::{ErrorKind, Location};
@@ -204,15 +204,221 @@ fn format_from_path() {
     assert_eq!(Format::from_path(Path::new("b.Obj")).unwrap(), Format::Obj);
     assert_eq!(Format::from_path(Path::new("b.ply")).unwrap(), Format::Ply);
     assert_eq!(Format::from_path(Path::new("b.stl")).unwrap(), Format::Stl);
-    let e = Format::from_path(Path::new("dir/mesh.xyz")).unwrap_err();
-    assert!(matches!(e.kind, ErrorKind::UnknownFormat { ref extension } if extension == "xyz"));
-    assert!(e.to_string().contains("mesh.xyz") && e.to_string().contains(".xyz"));
+    assert_eq!(Format::from_path(Path::new("b.XYZ")).unwrap(), Format::Xyz);
+    assert_eq!(Format::from_path(Path::new("b.pts")).unwrap(), Format::Pts);
+    assert_eq!(Format::from_path(Path::new("b.pcd")).unwrap(), Format::Pcd);
+    let e = Format::from_path(Path::new("dir/mesh.dat")).unwrap_err();
+    assert!(matches!(e.kind, ErrorKind::UnknownFormat { ref extension } if extension == "dat"));
+    assert!(e.to_string().contains("mesh.dat") && e.to_string().contains(".dat"));
+    assert!(e.to_string().contains(".pcd"), "{e}");
     let e = read_mesh(Path::new("dir/mesh")).unwrap_err();
     assert!(matches!(e.kind, ErrorKind::UnknownFormat { ref extension } if extension.is_empty()));
     assert!(e.to_string().contains("dir/mesh: no file extension"), "{e}");
-    for f in [Format::Off, Format::Obj, Format::Ply, Format::Stl] {
+    for f in [
+        Format::Off,
+        Format::Obj,
+        Format::Ply,
+        Format::Stl,
+        Format::Gltf,
+        Format::Xyz,
+        Format::Pts,
+        Format::Pcd,
+    ] {
         assert_eq!(Format::from_extension(f.extension()), Some(f));
     }
+}
+
+/// Points and unit normals of a mesh, for the point-cloud formats.
+fn cloud(m: &Mesh) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
+    let points = m.positions.iter().map(|p| [p.x, p.y, p.z]).collect();
+    let normals = m
+        .positions
+        .iter()
+        .map(|p| {
+            let n = p.coords.normalize();
+            [n.x, n.y, n.z]
+        })
+        .collect();
+    (points, normals)
+}
+
+fn input(bytes: &[u8], format: Format) -> LoadedInput {
+    read_input_from_bytes(bytes, format).unwrap_or_else(|e| panic!("{format:?}: {e}"))
+}
+
+fn points_of(i: &LoadedInput) -> &PointCloud {
+    match &i.geometry {
+        Geometry::Points(p) => p,
+        Geometry::Mesh(_) => panic!("{:?}: a mesh", i.format),
+    }
+}
+
+#[test]
+fn point_clouds_round_trip_through_xyz_pts_pcd_and_ply() {
+    let m = icosphere(2, 1.0);
+    let (points, normals) = cloud(&m);
+    let exact: Vec<Point3<f64>> = m.positions.clone();
+    let f32s = as_f32(&m);
+    let n = points.len();
+    let mut pts = format!("{n}\n").into_bytes();
+    pts.extend(fixtures::xyz(&points, None, " "));
+    let mut cases: Vec<(String, Format, Vec<u8>, bool)> = vec![
+        (
+            "xyz".into(),
+            Format::Xyz,
+            fixtures::xyz(&points, None, " "),
+            false,
+        ),
+        (
+            "xyz commas".into(),
+            Format::Xyz,
+            fixtures::xyz(&points, Some(&normals), ","),
+            true,
+        ),
+        ("pts".into(), Format::Pts, pts, false),
+    ];
+    for data in [PcdData::Ascii, PcdData::Binary, PcdData::Compressed] {
+        cases.push((
+            format!("pcd {data:?}"),
+            Format::Pcd,
+            fixtures::pcd(&points, Some(&normals), n, 1, data),
+            true,
+        ));
+    }
+    for (what, format, bytes, with_normals) in cases {
+        let i = input(&bytes, format);
+        assert_eq!(i.format, format, "{what}");
+        assert_eq!(i.source, Source::Points, "{what}");
+        assert!(i.warnings.is_empty(), "{what}: {:?}", i.warnings);
+        assert_eq!(i.repairs, Repairs::default());
+        let p = points_of(&i);
+        // Binary PCD stores x and z as f32, y as f64 (ascii values are written in full).
+        if format == Format::Pcd && !what.ends_with("Ascii") {
+            for (k, (a, b)) in p.positions.iter().zip(&exact).enumerate() {
+                assert_eq!((a.x, a.y, a.z), (f32s[k].x, b.y, f32s[k].z), "{what}");
+            }
+        } else {
+            assert_eq!(p.positions, exact, "{what}");
+        }
+        assert_eq!(p.normals.is_some(), with_normals, "{what}");
+        if let Some(ns) = &p.normals {
+            for (a, b) in ns.iter().zip(&normals) {
+                assert!((a - Vector3::from(*b)).norm() < 1e-6, "{what}");
+            }
+        }
+        // read_mesh refuses points, saying what the file holds and where points are accepted.
+        let e = read_mesh_from_bytes(&bytes, format).unwrap_err();
+        assert!(
+            matches!(e.kind, ErrorKind::PointCloud { points } if points == n),
+            "{what}"
+        );
+        let text = e.to_string();
+        assert!(text.contains(&format!("{n} points and no faces")), "{text}");
+        assert!(
+            text.contains("detect") && !text.contains("not supported"),
+            "{text}"
+        );
+    }
+    // Vertex-only PLY, OFF and OBJ are point clouds too.
+    let ply = fixtures::ply(&m, PlyEncoding::Little, PlyFaces::Faces, true);
+    let header_end = ply.windows(11).position(|w| w == b"end_header\n").unwrap();
+    let mut vertices_only =
+        String::from_utf8_lossy(&ply[..header_end]).replace("element face", "element unused");
+    vertices_only.push_str("end_header\n");
+    let mut b = vertices_only.into_bytes();
+    b.extend(&ply[header_end + 11..]);
+    let i = input(&b, Format::Ply);
+    assert_eq!(points_of(&i).positions, exact);
+    assert_eq!(points_of(&i).normals, None); // this fixture has 'nx' only
+    let off = format!(
+        "OFF\n{n} 0 0\n{}",
+        String::from_utf8(fixtures::xyz(&points, None, " ")).unwrap()
+    );
+    assert_eq!(
+        points_of(&input(off.as_bytes(), Format::Off)).positions,
+        exact
+    );
+}
+
+#[test]
+fn meshes_read_the_same_through_read_input() {
+    for (name, m) in meshes() {
+        for (format, bytes) in [
+            (Format::Off, fixtures::off_variants(&m)[0].1.clone()),
+            (
+                Format::Ply,
+                fixtures::ply(&m, PlyEncoding::Big, PlyFaces::Strips, true),
+            ),
+            (Format::Stl, fixtures::stl_binary(&m)),
+        ] {
+            let i = input(&bytes, format);
+            let l = read(&bytes, format);
+            assert_eq!(i.source, Source::Mesh, "{name}");
+            assert_eq!(i.geometry, Geometry::Mesh(l.mesh), "{name} {format:?}");
+            assert_eq!(i.repairs, l.repairs);
+            assert!(i.warnings.is_empty() && l.warnings.is_empty());
+        }
+    }
+}
+
+#[test]
+fn a_range_grid_reads_as_a_mesh_through_both_entry_points() {
+    // A 3 x 4 grid with one absent cell, written as the Stanford scans are.
+    let mut text = String::from(
+        "ply\nformat ascii 1.0\nobj_info num_cols 4\nobj_info num_rows 3\nelement vertex 11\n\
+         property float x\nproperty float y\nproperty float z\nelement range_grid 12\n\
+         property list uchar int vertex_indices\nend_header\n",
+    );
+    let mut cells = String::new();
+    let mut v = 0;
+    for r in 0..3 {
+        for c in 0..4 {
+            if (r, c) == (1, 2) {
+                cells.push_str("0\n");
+            } else {
+                text.push_str(&format!("{c} {r} 0\n"));
+                cells.push_str(&format!("1 {v}\n"));
+                v += 1;
+            }
+        }
+    }
+    text.push_str(&cells);
+    let i = input(text.as_bytes(), Format::Ply);
+    assert_eq!(i.source, Source::RangeGrid { rows: 3, cols: 4 });
+    let l = read(text.as_bytes(), Format::Ply);
+    assert_eq!(i.geometry, Geometry::Mesh(l.mesh.clone()));
+    // 6 blocks, 4 of them missing a corner.
+    assert_eq!(l.mesh.num_faces(), 2 * 2 + 4);
+    // A grid too sparse for any triangle: points, with a warning.
+    let sparse = text.replace(
+        "obj_info num_cols 4\nobj_info num_rows 3",
+        "obj_info num_cols 12\nobj_info num_rows 1",
+    );
+    let i = input(sparse.as_bytes(), Format::Ply);
+    assert_eq!(i.source, Source::Points);
+    assert_eq!(points_of(&i).positions.len(), 11);
+    assert!(
+        i.warnings[0].contains("1 x 12 range grid gives no triangles"),
+        "{:?}",
+        i.warnings
+    );
+    let e = read_mesh_from_bytes(sparse.as_bytes(), Format::Ply).unwrap_err();
+    assert!(matches!(e.kind, ErrorKind::PointCloud { points: 11 }));
+}
+
+#[test]
+fn non_finite_normals_are_dropped_with_a_warning() {
+    let points = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]];
+    let normals = [[0.0, 0.0, 1.0], [f64::NAN, 0.0, 1.0]];
+    let i = input(
+        &fixtures::pcd(&points, Some(&normals), 2, 1, PcdData::Binary),
+        Format::Pcd,
+    );
+    assert_eq!(points_of(&i).normals, None);
+    assert_eq!(
+        i.warnings,
+        vec!["point 1: its normal is NaN or infinite: normals ignored"]
+    );
 }
 
 /// A malformed file, what error it must give and where.
@@ -318,7 +524,7 @@ fn malformed_files_give_clear_errors() {
         bad(
             "nofaces.off",
             "OFF\n3 0 0\n0 0 0\n1 0 0\n0 1 0\n",
-            |k| matches!(k, ErrorKind::NoFaces { dropped: 0 }),
+            |k| matches!(k, ErrorKind::PointCloud { points: 3 }),
             None,
         ),
         bad(
@@ -362,7 +568,7 @@ fn malformed_files_give_clear_errors() {
         bad(
             "points.obj",
             "v 0 0 0\nv 1 0 0\nv 0 1 0\n",
-            |k| matches!(k, ErrorKind::NoFaces { dropped: 0 }),
+            |k| matches!(k, ErrorKind::PointCloud { points: 3 }),
             None,
         ),
         bad(
@@ -413,8 +619,66 @@ fn malformed_files_give_clear_errors() {
             "nofaces.ply",
             "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
              property float z\nend_header\n0 0 0\n1 0 0\n0 1 0\n",
-            |k| matches!(k, ErrorKind::NoFaces { dropped: 0 }),
+            |k| matches!(k, ErrorKind::PointCloud { points: 3 }),
             None,
+        ),
+        bad(
+            "nan.xyz",
+            "0 0 0\n1 0 0\n0 nan 0\n",
+            |k| matches!(k, ErrorKind::NonFiniteCoordinate),
+            Some(Location::Line(3)),
+        ),
+        bad(
+            "short.xyz",
+            "# x y z\n0 0 0\n1 0\n",
+            |k| matches!(k, ErrorKind::Syntax(_)),
+            Some(Location::Line(3)),
+        ),
+        bad(
+            "empty.xyz",
+            "// nothing\n",
+            |k| matches!(k, ErrorKind::NoVertices),
+            None,
+        ),
+        bad(
+            "word.pts",
+            "2\n0 0 0 1 2 3 4\n1 zero 0 1 2 3 4\n",
+            |k| matches!(k, ErrorKind::Syntax(_)),
+            Some(Location::Line(3)),
+        ),
+        bad(
+            "points.pts",
+            "2\n0 0 0 1 2 3 4\n1 0 0 1 2 3 4\n",
+            |k| matches!(k, ErrorKind::PointCloud { points: 2 }),
+            None,
+        ),
+        bad(
+            "huge.pcd",
+            "FIELDS x y z\nPOINTS 1000000000\nDATA binary\n\0\0\0\0\0\0\0\0\0\0\0\0",
+            |k| matches!(k, ErrorKind::Truncated { .. }),
+            Some(Location::Point(1)),
+        ),
+        bad(
+            "inf.pcd",
+            "FIELDS x y z\nPOINTS 2\nDATA ascii\n0 0 0\n0 -inf 0\n",
+            |k| matches!(k, ErrorKind::NonFiniteCoordinate),
+            Some(Location::Line(5)),
+        ),
+        bad(
+            "grid.ply",
+            "ply\nformat ascii 1.0\nobj_info num_cols 2\nobj_info num_rows 1\nelement vertex 1\n\
+             property float x\nproperty float y\nproperty float z\nelement range_grid 2\n\
+             property list uchar int vertex_indices\nend_header\n0 0 0\n1 0\n1 1\n",
+            |k| {
+                matches!(
+                    k,
+                    ErrorKind::IndexOutOfRange {
+                        index: 1,
+                        vertices: 1
+                    }
+                )
+            },
+            Some(Location::Line(14)),
         ),
         bad(
             "cut.stl",
@@ -516,8 +780,42 @@ fn seeds() -> Vec<(Format, Vec<u8>)> {
     }
     v.push((Format::Stl, fixtures::stl_ascii(&m)));
     v.push((Format::Stl, fixtures::stl_binary(&m)));
+    let (mut points, normals) = cloud(&m);
+    v.push((Format::Xyz, fixtures::xyz(&points, Some(&normals), " ")));
+    let mut pts = format!("{}\n", points.len()).into_bytes();
+    pts.extend(fixtures::xyz(&points, None, ","));
+    v.push((Format::Pts, pts));
+    points[3] = [f64::NAN; 3];
+    for data in [PcdData::Ascii, PcdData::Binary, PcdData::Compressed] {
+        v.push((
+            Format::Pcd,
+            fixtures::pcd(&points, Some(&normals), 12, 1, data),
+        ));
+        v.push((Format::Pcd, fixtures::pcd(&points, None, 4, 3, data)));
+    }
+    let mut grid = String::from(
+        "ply\nformat ascii 1.0\nobj_info num_cols 4\nobj_info num_rows 3\nbye\n\
+         element vertex 12\nproperty float x\nproperty float y\nproperty float z\n\
+         element range_grid 12\nproperty list uchar int vertex_indices\nend_header\n",
+    );
+    m.positions[..12]
+        .iter()
+        .for_each(|p| grid.push_str(&format!("{} {} {}\n", p.x, p.y, p.z)));
+    (0..12).for_each(|i| grid.push_str(if i == 5 { "0\n" } else { "1 " }));
+    v.push((Format::Ply, grid.into_bytes()));
     v
 }
+
+const FORMATS: [Format; 8] = [
+    Format::Off,
+    Format::Obj,
+    Format::Ply,
+    Format::Stl,
+    Format::Gltf,
+    Format::Xyz,
+    Format::Pts,
+    Format::Pcd,
+];
 
 #[derive(Debug, Clone)]
 enum Mutation {
@@ -590,7 +888,7 @@ proptest! {
     fn mutated_files_never_panic(
         seed in any::<prop::sample::Index>(),
         muts in proptest::collection::vec(mutation(), 1..6),
-        other in 0usize..4,
+        other in 0usize..8,
     ) {
         let seeds = seeds();
         let (format, mut bytes) = seeds[seed.index(seeds.len())].clone();
@@ -599,8 +897,8 @@ proptest! {
         }
         // Ok or Err, never a panic; and the same bytes through another reader.
         let _ = read_mesh_from_bytes(&bytes, format);
-        let formats = [Format::Off, Format::Obj, Format::Ply, Format::Stl];
-        let _ = read_mesh_from_bytes(&bytes, formats[other]);
+        let _ = read_input_from_bytes(&bytes, format);
+        let _ = read_input_from_bytes(&bytes, FORMATS[other]);
     }
 
     #[test]
@@ -613,11 +911,17 @@ proptest! {
             Just(&b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement tristrips 1\nproperty list int int vertex_indices\nend_header\n"[..]),
             Just(&b"solid x\n"[..]),
             Just(&b"v 0 0 0\nv 1 0 0\nv 0 1 0\n"[..]),
+            Just(&b"ply\nformat binary_little_endian 1.0\nobj_info num_cols 3\nobj_info num_rows 2\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nelement range_grid 6\nproperty list uchar int vertex_indices\nend_header\n"[..]),
+            Just(&b"3\n"[..]),
+            Just(&b"FIELDS x y z normal_x normal_y normal_z\nWIDTH 2\nHEIGHT 2\nDATA binary\n"[..]),
+            Just(&b"VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 3\nHEIGHT 1\nPOINTS 3\nDATA binary_compressed\n"[..]),
+            Just(&b"FIELDS x y z\nPOINTS 3\nDATA ascii\n"[..]),
         ],
     ) {
         let data = [prefix, &bytes[..]].concat();
-        for format in [Format::Off, Format::Obj, Format::Ply, Format::Stl] {
+        for format in FORMATS {
             let _ = read_mesh_from_bytes(&data, format);
+            let _ = read_input_from_bytes(&data, format);
         }
     }
 }
