@@ -381,6 +381,9 @@ struct Surface {
     vertices: f64,
     /// Entry 31 holds the part's size in the length unit instead of its keypoint density.
     file_units: bool,
+    /// Vertices without a Harris response (fits reaching the boundary, `skip_boundary`) are
+    /// left out of the response histogram instead of counted in its lowest bin.
+    skip_unfitted: bool,
 }
 
 /// Principal curvatures of a fit, oriented by `normal` (κ1 ≥ κ2), in the fit's units.
@@ -631,6 +634,7 @@ fn prepare(
         total_keypoints: det.keypoints.len().max(1) as f64,
         vertices: n.max(1) as f64,
         file_units: matches!(params.units, Units::File { .. }),
+        skip_unfitted: params.harris.skip_boundary,
     };
     let boundary: Vec<bool> = (0..n as u32).map(|v| topo.is_boundary(v)).collect();
     Ok((surface, boundary, solver))
@@ -971,12 +975,14 @@ fn describe_part(s: &Surface, part: &Part, d: &[f64]) -> (Descriptor, f64, f64) 
         let a = w as f32;
         // Harris response, log scale relative to the part's maximum
         let h = s.response[vi];
-        let b = if h.is_finite() && h > 0.0 && h_max > 0.0 {
-            bin((h / h_max).log10(), -4.0, 0.0, 8)
-        } else {
-            0
-        };
-        desc[b] += a;
+        if h.is_finite() || !s.skip_unfitted {
+            let b = if h > 0.0 && h_max > 0.0 {
+                bin((h / h_max).log10(), -4.0, 0.0, 8)
+            } else {
+                0
+            };
+            desc[b] += a;
+        }
         // geodesic distance from the centre, relative to the radius
         let dg = d[vi];
         if dg.is_finite() && radius > 0.0 {

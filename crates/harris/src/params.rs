@@ -130,6 +130,13 @@ pub struct HarrisParams {
     /// `keycomp_components` uses 30 (see its docs for the measurements).
     #[serde(default)]
     pub smoothing_iterations: usize,
+    /// A vertex whose neighbourhood reaches the mesh's boundary gets no response (NaN), so it
+    /// is never a keypoint: its quadratic is fitted to a one-sided neighbourhood, and along
+    /// the ragged border of a scan or a fragment such fits give the largest responses of the
+    /// mesh, at places that move with every cut. Default false, as in the paper; keycomp's
+    /// analysis profile turns it on (not in the paper).
+    #[serde(default)]
+    pub skip_boundary: bool,
 }
 
 impl Default for HarrisParams {
@@ -144,6 +151,7 @@ impl Default for HarrisParams {
             k: 0.04,
             selection: Selection::Fraction(0.01),
             smoothing_iterations: 0,
+            skip_boundary: false,
         }
     }
 }

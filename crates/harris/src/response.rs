@@ -55,6 +55,8 @@ pub(crate) struct Context<'a> {
     /// Factor taking the mesh to unit surface area.
     pub unit_scale: f64,
     pub k: f64,
+    /// No response where the neighbourhood reaches the boundary.
+    pub skip_boundary: bool,
 }
 
 /// Edge lengths in [`Topology::neighbors`] order, and where each vertex's run starts; empty
@@ -139,6 +141,7 @@ impl<'a> Context<'a> {
             min_points: params.min_points.max(6),
             unit_scale: 1.0 / area.sqrt(),
             k: params.k,
+            skip_boundary: params.skip_boundary,
         })
     }
 }
@@ -258,6 +261,9 @@ pub(crate) fn local_fit_with(ctx: &Context, v: VertexId, s: &mut Scratch) -> Opt
     let rings = neighbourhood(ctx, v, s);
     let n = s.verts.len();
     if n < ctx.min_points {
+        return None;
+    }
+    if ctx.skip_boundary && s.verts.iter().any(|&u| ctx.topo.is_boundary(u)) {
         return None;
     }
     // Coordinates relative to v, on the unit-area scale (translation never enters).
