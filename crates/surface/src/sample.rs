@@ -1,0 +1,117 @@
+//! Oriented samples of the input: the points the offset volume is measured from.
+//!
+//! A mesh is sampled at the centroids of its faces split by longest-edge bisection until no
+//! edge is longer than the spacing s (a fat face gets about 4·area/s² samples, a sliver about
+//! its length over s, never more than its area warrants squared), each sample carrying the
+//! unit normal of its face as [`crate::orient`] wound it. Samples are then thinned to one per
+//! cube of side s/2 (the first in input order), so that a finely tessellated input costs no
+//! more than a coarse one beyond reading it.
+
+use keycomp_mesh::{Mesh, Point3, Vector3};
+
+use crate::SurfaceError;
+
+/// Points with unit normals (zero where the side is unknown).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Samples {
+    /// Sample positions.
+    pub positions: Vec<Point3<f64>>,
+    /// Unit normals, or zero.
+    pub normals: Vec<Vector3<f64>>,
+    /// The input face each sample lies on ([`NO_FACE`] for a point of a cloud).
+    pub faces: Vec<u32>,
+}
+
+/// [`Samples::faces`] of a sample that lies on no face.
+pub const NO_FACE: u32 = u32::MAX;
+
+/// Most samples made from one mesh before thinning (a bound on memory whatever the input).
+pub const MAX_RAW_SAMPLES: usize = 40_000_000;
+
+/// Samples of `mesh` at spacing `s`, faces wound as `flip` says (see the module docs).
+pub fn lattice(mesh: &Mesh, flip: &[bool], s: f64) -> Result<Samples, SurfaceError> {
+    let mut out = Samples::default();
+    let s2 = s * s;
+    let mut stack: Vec<[Point3<f64>; 3]> = Vec::new();
+    for (f, _) in mesh.faces.iter().enumerate() {
+        let [a, b, c] = mesh.triangle(f);
+        let n = (b - a).cross(&(c - a));
+        let len = n.norm();
+        if !(len > 0.0 && len.is_finite()) {
+            continue;
+        }
+        let n = if flip.get(f).copied().unwrap_or(false) {
+            -n / len
+        } else {
+            n / len
+        };
+        stack.push([a, b, c]);
+        while let Some([a, b, c]) = stack.pop() {
+            let (ab, bc, ca) = (
+                (b - a).norm_squared(),
+                (c - b).norm_squared(),
+                (a - c).norm_squared(),
+            );
+            let longest = ab.max(bc).max(ca);
+            if longest <= s2 {
+                out.positions
+                    .push(Point3::from((a.coords + b.coords + c.coords) / 3.0));
+                out.normals.push(n);
+                out.faces.push(f as u32);
+                if out.positions.len() > MAX_RAW_SAMPLES {
+                    return Err(SurfaceError::Params(format!(
+                        "the input needs more than {MAX_RAW_SAMPLES} samples at spacing {s:e}"
+                    )));
+                }
+                continue;
+            }
+            // bisect the longest edge; both halves keep the winding
+            if longest == ab {
+                let m = Point3::from((a.coords + b.coords) / 2.0);
+                stack.push([a, m, c]);
+                stack.push([m, b, c]);
+            } else if longest == bc {
+                let m = Point3::from((b.coords + c.coords) / 2.0);
+                stack.push([a, b, m]);
+                stack.push([a, m, c]);
+            } else {
+                let m = Point3::from((c.coords + a.coords) / 2.0);
+                stack.push([a, b, m]);
+                stack.push([m, b, c]);
+            }
+        }
+    }
+    Ok(thin(out, 0.5 * s))
+}
+
+/// Keeps the first sample (in order) of each cube of side `cell`.
+pub fn thin(samples: Samples, cell: f64) -> Samples {
+    if samples.positions.is_empty() || cell.is_nan() || cell <= 0.0 {
+        return samples;
+    }
+    let key = |p: &Point3<f64>| {
+        [
+            (p.x / cell).floor() as i64,
+            (p.y / cell).floor() as i64,
+            (p.z / cell).floor() as i64,
+        ]
+    };
+    let mut order: Vec<([i64; 3], u32)> = samples
+        .positions
+        .iter()
+        .enumerate()
+        .map(|(i, p)| (key(p), i as u32))
+        .collect();
+    order.sort_unstable();
+    order.dedup_by_key(|e| e.0);
+    let mut keep: Vec<u32> = order.into_iter().map(|e| e.1).collect();
+    keep.sort_unstable();
+    Samples {
+        positions: keep
+            .iter()
+            .map(|&i| samples.positions[i as usize])
+            .collect(),
+        normals: keep.iter().map(|&i| samples.normals[i as usize]).collect(),
+        faces: keep.iter().map(|&i| samples.faces[i as usize]).collect(),
+    }
+}

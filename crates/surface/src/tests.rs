@@ -1,0 +1,233 @@
+//! Tests of the canonical surface against shapes whose answer is known.
+
+use super::*;
+use keycomp_mesh::{Topology, synth};
+
+fn params(vertices: usize) -> SurfaceParams {
+    SurfaceParams {
+        vertices,
+        ..SurfaceParams::default()
+    }
+}
+
+fn boundary_edges(m: &Mesh) -> usize {
+    let topo = Topology::new(m);
+    (0..m.num_vertices() as u32)
+        .map(|v| {
+            topo.neighbors(v)
+                .iter()
+                .zip(topo.edge_face_counts(v))
+                .filter(|&(&w, &c)| w > v && c == 1)
+                .count()
+        })
+        .sum()
+}
+
+/// A sphere at two resolutions: the same closed surface of about the asked vertex count, on
+/// the sphere's facets.
+#[test]
+fn sphere_at_any_resolution() {
+    let mut made = Vec::new();
+    for sub in [2, 5] {
+        let m = synth::icosphere(sub, 1.0);
+        let s = canonical(Input::Mesh(&m), &params(3000)).expect("surface");
+        let n = s.mesh.num_vertices();
+        assert!(
+            (2200..=3800).contains(&n),
+            "subdivision {sub}: {n} vertices"
+        );
+        assert_eq!(boundary_edges(&s.mesh), 0, "closed");
+        // an icosphere's facets lie between 0.94 (subdivision 2) and 1 from its centre; the
+        // few vertices whose projection would flatten a face stay at most r outside
+        let mut on = 0;
+        for p in &s.mesh.positions {
+            let d = p.coords.norm();
+            assert!((0.93..=1.0 + s.offset).contains(&d), "{d}");
+            on += usize::from(d <= 1.0 + 1e-9);
+        }
+        assert!(on as f64 >= 0.98 * n as f64, "{on} of {n} on the sphere");
+        made.push(geometry::total_area(&s.mesh));
+    }
+    assert!((made[0] / made[1] - 1.0).abs() < 0.05, "{made:?}");
+}
+
+/// A sphere wound inward is the same solid: nothing is trimmed.
+#[test]
+fn closed_solids_lose_nothing_whatever_their_winding() {
+    let mut m = synth::icosphere(3, 1.0);
+    for t in &mut m.faces {
+        t.swap(1, 2);
+    }
+    let s = canonical(Input::Mesh(&m), &params(2000)).expect("surface");
+    assert_eq!(s.trimmed_faces, 0);
+    assert_eq!(boundary_edges(&s.mesh), 0);
+}
+
+/// An open sheet keeps the side it faces, its area and a boundary.
+#[test]
+fn open_sheets_keep_one_side() {
+    let m = synth::height_field(40, 40, 0.05, |x, y| 0.3 * (-(x * x + y * y) / 0.5).exp());
+    let area = geometry::total_area(&m);
+    let s = canonical(Input::Mesh(&m), &params(3000)).expect("surface");
+    assert!(s.trimmed_faces > 0);
+    assert!(boundary_edges(&s.mesh) > 0);
+    let a = geometry::total_area(&s.mesh);
+    assert!((a / area - 1.0).abs() < 0.25, "{a} vs {area}");
+    // the input faces +z: so must the surface, and it lies above the sheet
+    let up = (0..s.mesh.num_faces())
+        .filter(|&f| {
+            let [a, b, c] = s.mesh.triangle(f);
+            (b - a).cross(&(c - a)).z > 0.0
+        })
+        .count();
+    assert!(up as f64 > 0.9 * s.mesh.num_faces() as f64, "{up}");
+    // reversed winding keeps the other side
+    let mut flipped = m.clone();
+    for t in &mut flipped.faces {
+        t.swap(1, 2);
+    }
+    let s2 = canonical(Input::Mesh(&flipped), &params(3000)).expect("surface");
+    let down = (0..s2.mesh.num_faces())
+        .filter(|&f| {
+            let [a, b, c] = s2.mesh.triangle(f);
+            (b - a).cross(&(c - a)).z < 0.0
+        })
+        .count();
+    assert!(down as f64 > 0.9 * s2.mesh.num_faces() as f64, "{down}");
+}
+
+/// Two overlapping cubes given as separate pieces become one closed surface without the faces
+/// hidden inside their union.
+#[test]
+fn a_soup_becomes_one_solid() {
+    let mut soup = cube([0.0, 0.0, 0.0], 1.0);
+    let other = cube([0.5, 0.3, 0.2], 1.0);
+    let off = soup.positions.len() as u32;
+    soup.positions.extend(other.positions);
+    soup.faces
+        .extend(other.faces.iter().map(|t| t.map(|v| v + off)));
+    let s = canonical(Input::Mesh(&soup), &params(3000)).expect("surface");
+    assert_eq!(boundary_edges(&s.mesh), 0);
+    let (_, pieces) = Topology::new(&s.mesh).connected_components();
+    assert_eq!(pieces, 1);
+    // the union's area: each cube hides three faces of the 0.5 × 0.7 × 0.8 box they share,
+    // 12 − 2 · (0.35 + 0.4 + 0.56) = 9.38; vertices on the sharp edges stay a little outside
+    let a = geometry::total_area(&s.mesh);
+    assert!((9.3..10.3).contains(&a), "{a}");
+}
+
+/// Points on a sphere make a closed surface; one view of a bump an open one facing its viewer.
+#[test]
+fn point_clouds() {
+    let pts = crate::normals::tests_support::fibonacci_sphere(5000, 1.0);
+    let s = canonical(
+        Input::Points {
+            positions: &pts,
+            normals: None,
+        },
+        &params(2000),
+    )
+    .expect("surface");
+    assert_eq!(boundary_edges(&s.mesh), 0);
+    let a = geometry::total_area(&s.mesh);
+    assert!((a / (4.0 * std::f64::consts::PI) - 1.0).abs() < 0.3, "{a}");
+    let mut bump = Vec::new();
+    for i in 0..80 {
+        for j in 0..80 {
+            let (x, y) = (i as f64 / 40.0 - 1.0, j as f64 / 40.0 - 1.0);
+            bump.push(Point3::new(x, y, 0.5 * (1.0 - 0.5 * (x * x + y * y))));
+        }
+    }
+    let s = canonical(
+        Input::Points {
+            positions: &bump,
+            normals: None,
+        },
+        &params(2000),
+    )
+    .expect("surface");
+    assert!(boundary_edges(&s.mesh) > 0);
+    let up = (0..s.mesh.num_faces())
+        .filter(|&f| {
+            let [a, b, c] = s.mesh.triangle(f);
+            (b - a).cross(&(c - a)).z > 0.0
+        })
+        .count();
+    assert!(up as f64 > 0.9 * s.mesh.num_faces() as f64);
+}
+
+#[test]
+fn deterministic() {
+    let m = synth::textured_protrusion_sphere(4);
+    let a = canonical(Input::Mesh(&m), &params(2000)).expect("a");
+    let b = canonical(Input::Mesh(&m), &params(2000)).expect("b");
+    assert_eq!(a, b);
+}
+
+#[test]
+fn degenerate_inputs_are_errors() {
+    let flat = Mesh {
+        positions: vec![
+            Point3::origin(),
+            Point3::new(1.0, 0.0, 0.0),
+            Point3::new(2.0, 0.0, 0.0),
+        ],
+        faces: vec![[0, 1, 2]],
+    };
+    assert!(matches!(
+        canonical(Input::Mesh(&flat), &SurfaceParams::default()),
+        Err(SurfaceError::NoArea)
+    ));
+    let bad = SurfaceParams {
+        vertices: 10,
+        ..SurfaceParams::default()
+    };
+    assert!(canonical(Input::Mesh(&synth::icosphere(1, 1.0)), &bad).is_err());
+}
+
+/// A long thin input gets a bounded grid (coarser spacing) instead of a huge allocation.
+#[test]
+fn extent_far_beyond_the_area_is_bounded() {
+    let needle = Mesh {
+        positions: vec![
+            Point3::origin(),
+            Point3::new(1e6, 0.0, 0.0),
+            Point3::new(0.0, 1e-3, 1e6),
+        ],
+        faces: vec![[0, 1, 2]],
+    };
+    let s = canonical(Input::Mesh(&needle), &params(1000));
+    if let Ok(s) = s {
+        assert!(s.mesh.num_vertices() > 0);
+    }
+}
+
+fn cube(o: [f64; 3], e: f64) -> Mesh {
+    let p = |x: f64, y: f64, z: f64| Point3::new(o[0] + x * e, o[1] + y * e, o[2] + z * e);
+    Mesh {
+        positions: vec![
+            p(0.0, 0.0, 0.0),
+            p(1.0, 0.0, 0.0),
+            p(1.0, 1.0, 0.0),
+            p(0.0, 1.0, 0.0),
+            p(0.0, 0.0, 1.0),
+            p(1.0, 0.0, 1.0),
+            p(1.0, 1.0, 1.0),
+            p(0.0, 1.0, 1.0),
+        ],
+        faces: vec![
+            [0, 2, 1],
+            [0, 3, 2],
+            [4, 5, 6],
+            [4, 6, 7],
+            [0, 1, 5],
+            [0, 5, 4],
+            [1, 2, 6],
+            [1, 6, 5],
+            [2, 3, 7],
+            [2, 7, 6],
+            [3, 0, 4],
+            [3, 4, 7],
+        ],
+    }
+}
