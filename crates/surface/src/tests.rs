@@ -231,3 +231,53 @@ fn cube(o: [f64; 3], e: f64) -> Mesh {
         ],
     }
 }
+
+mod properties {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn point() -> impl Strategy<Value = Point3<f64>> {
+        (-1.0..1.0f64, -1.0..1.0f64, -1.0..1.0f64).prop_map(|(x, y, z)| Point3::new(x, y, z))
+    }
+
+    fn check(s: Result<Surface, SurfaceError>) {
+        if let Ok(s) = s {
+            let n = s.mesh.num_vertices() as u32;
+            assert!(!s.mesh.faces.is_empty());
+            assert!(s.mesh.faces.iter().flatten().all(|&v| v < n));
+            assert!(
+                s.mesh
+                    .positions
+                    .iter()
+                    .all(|p| p.coords.iter().all(|c| c.is_finite()))
+            );
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(24))]
+
+        /// Any soup of random triangles gives a valid surface or an error, never a panic.
+        #[test]
+        fn random_soups(points in prop::collection::vec(point(), 3..40), seed in 0u64..1000) {
+            let n = points.len() as u64;
+            let faces = (0..points.len() as u64)
+                .map(|i| {
+                    let f = |k: u64| ((i * 7 + k * 13 + seed) % n) as u32;
+                    [f(0), f(1), f(2)]
+                })
+                .collect();
+            if let Ok((mesh, _)) = Mesh::from_raw(points, faces) {
+                check(canonical(Input::Mesh(&mesh), &params(500)));
+            }
+        }
+
+        /// Any cloud of random points, duplicates included, likewise.
+        #[test]
+        fn random_clouds(mut points in prop::collection::vec(point(), 1..300)) {
+            let copy = points[0];
+            points.push(copy);
+            check(canonical(Input::Points { positions: &points, normals: None }, &params(500)));
+        }
+    }
+}
