@@ -1,6 +1,12 @@
-//! Analysing a mesh for matching and retrieval: read it, detect its key-components, describe
-//! its parts, under a [`Profile`] (the parameters an index records so that its descriptors stay
-//! comparable).
+//! Analysing a mesh for matching and retrieval: read it (a mesh, a range scan or a point
+//! cloud), detect its key-components, describe its parts, under a [`Profile`] (the parameters
+//! an index records so that its descriptors stay comparable).
+//!
+//! What is analysed is the mesh as read, or, when the profile asks for it
+//! ([`Profile::surface`]), its canonical surface (`keycomp_surface`: one connected surface of a
+//! fixed density relative to its size, for a mesh at any resolution, a triangle soup, a range
+//! scan or a point cloud alike). A point cloud has no mesh to analyse: it is always analysed on
+//! its canonical surface.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -8,7 +14,8 @@ use std::time::Instant;
 use keycomp_components::{DetectError, DetectParams, Detection, detect};
 use keycomp_describe::{DIM, DescribeError, DescribeParams, ShapeDescription, describe_all};
 use keycomp_index::{ComponentRecord, ContentHash, ShapeRecord, canonical_path};
-use keycomp_mesh::{Format, Mesh, MeshError, read_mesh};
+use keycomp_mesh::{Format, Geometry, Mesh, MeshError, read_input};
+use keycomp_surface::{SurfaceError, SurfaceParams};
 use rayon::prelude::*;
 
 /// What can go wrong while analysing a mesh. Every variant that concerns a file names it.
@@ -24,6 +31,14 @@ pub enum Error {
         path: Option<PathBuf>,
         /// Why.
         source: DetectError,
+    },
+    /// No canonical surface could be made (the input has no area).
+    #[error("{}: {source}", show(path))]
+    Surface {
+        /// The mesh file, if the mesh came from one.
+        path: Option<PathBuf>,
+        /// Why.
+        source: SurfaceError,
     },
     /// Describing the parts failed.
     #[error("{}: describing its parts failed: {source}", show(path))]
@@ -80,11 +95,17 @@ fn show(path: &Option<PathBuf>) -> String {
 }
 
 /// The profile recorded in an index (`keycomp_index::IndexWriter::ensure_profile`): what makes
-/// its descriptors comparable — descriptor version, description and detection parameters.
+/// its descriptors comparable — descriptor version, the canonical surface, description and
+/// detection parameters.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Profile {
     /// [`keycomp_describe::DESCRIPTOR_VERSION`].
     pub descriptor_version: u32,
+    /// The canonical surface every input is analysed on; `None`: meshes as read (point clouds
+    /// on a canonical surface of default parameters). Profiles written before it existed read
+    /// as `None`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub surface: Option<SurfaceParams>,
     /// Description parameters.
     pub describe: DescribeParams,
     /// Detection parameters.
@@ -101,9 +122,22 @@ impl Profile {
     pub fn with(params: &DetectParams, describe: DescribeParams) -> Profile {
         Profile {
             descriptor_version: keycomp_describe::DESCRIPTOR_VERSION,
+            surface: None,
             describe,
             detect: params.clone(),
         }
+    }
+
+    /// This profile with inputs analysed on their canonical surface of `surface` (`None`: as
+    /// read). On a canonical surface the only boundaries are real ones (a scan's or a
+    /// fragment's border), and Harris fits that reach them are left out of detection and of
+    /// the descriptors (`HarrisParams::skip_boundary`).
+    pub fn with_surface(mut self, surface: Option<SurfaceParams>) -> Profile {
+        let on = surface.is_some();
+        self.surface = surface;
+        self.detect.harris.skip_boundary = on;
+        self.describe.harris.skip_boundary = on;
+        self
     }
 
     /// As recorded in the index (compact JSON).
@@ -114,8 +148,11 @@ impl Profile {
 
 /// A mesh read, detected and described.
 pub struct Analysed {
-    /// The mesh.
+    /// What detection and description ran on (their vertex ids are this mesh's): the mesh as
+    /// read, or its canonical surface ([`Profile::surface`]).
     pub mesh: Mesh,
+    /// What the reader noticed and tolerated (unknown header lines, dropped NaN points, …).
+    pub warnings: Vec<String>,
     /// Its key-components (Sipiran & Bustos 2013).
     pub detection: Detection,
     /// Its parts at several scales, their descriptors and layout (for a query with several
@@ -145,11 +182,13 @@ pub fn analyse(path: &Path, profile: &Profile) -> Result<Analysed, Error> {
     analyse_as(path, profile, Role::Indexed)
 }
 
-/// Reads, detects and describes one mesh file under `profile`, as `role`.
+/// Reads, detects and describes one mesh file under `profile`, as `role`. Meshes, range
+/// scans and point clouds are read (`keycomp_mesh::read_input`).
 pub fn analyse_as(path: &Path, profile: &Profile, role: Role) -> Result<Analysed, Error> {
     let t = Instant::now();
-    let mesh = read_mesh(path)?.mesh;
-    let mut a = analyse_in(mesh, profile, Some(path), role)?;
+    let loaded = read_input(path)?;
+    let mut a = analyse_in(loaded.geometry, profile, Some(path), role)?;
+    a.warnings = loaded.warnings;
     a.ms = t.elapsed().as_secs_f64() * 1e3;
     Ok(a)
 }
@@ -157,21 +196,56 @@ pub fn analyse_as(path: &Path, profile: &Profile, role: Role) -> Result<Analysed
 /// Detects and describes a mesh already in memory under `profile`, as a shape of the
 /// collection.
 pub fn analyse_mesh(mesh: Mesh, profile: &Profile) -> Result<Analysed, Error> {
-    analyse_in(mesh, profile, None, Role::Indexed)
+    analyse_in(Geometry::Mesh(mesh), profile, None, Role::Indexed)
 }
 
 /// Detects and describes a mesh already in memory under `profile`, as `role`.
 pub fn analyse_mesh_as(mesh: Mesh, profile: &Profile, role: Role) -> Result<Analysed, Error> {
-    analyse_in(mesh, profile, None, role)
+    analyse_in(Geometry::Mesh(mesh), profile, None, role)
+}
+
+/// Detects and describes a mesh or a point cloud in memory under `profile`, as `role`.
+pub fn analyse_geometry_as(
+    geometry: Geometry,
+    profile: &Profile,
+    role: Role,
+) -> Result<Analysed, Error> {
+    analyse_in(geometry, profile, None, role)
+}
+
+/// The canonical surface of `geometry` under `params` (`keycomp_surface::canonical`).
+pub fn canonical_surface(
+    geometry: &Geometry,
+    params: &SurfaceParams,
+) -> Result<keycomp_surface::Surface, SurfaceError> {
+    let input = match geometry {
+        Geometry::Mesh(mesh) => keycomp_surface::Input::Mesh(mesh),
+        Geometry::Points(cloud) => keycomp_surface::Input::Points {
+            positions: &cloud.positions,
+            normals: cloud.normals.as_deref(),
+        },
+    };
+    keycomp_surface::canonical(input, params)
 }
 
 fn analyse_in(
-    mesh: Mesh,
+    geometry: Geometry,
     profile: &Profile,
     path: Option<&Path>,
     role: Role,
 ) -> Result<Analysed, Error> {
     let t = Instant::now();
+    let mesh = match (geometry, &profile.surface) {
+        (Geometry::Mesh(mesh), None) => mesh,
+        (geometry, surface) => {
+            canonical_surface(&geometry, &surface.unwrap_or_default())
+                .map_err(|source| Error::Surface {
+                    path: path.map(Path::to_path_buf),
+                    source,
+                })?
+                .mesh
+        }
+    };
     let detection = detect(&mesh, &profile.detect).map_err(|source| Error::Detection {
         path: path.map(Path::to_path_buf),
         source,
@@ -194,6 +268,7 @@ fn analyse_in(
     let description = hypotheses.remove(0);
     Ok(Analysed {
         mesh,
+        warnings: Vec::new(),
         detection,
         description,
         hypotheses,

@@ -138,6 +138,11 @@ pub struct Args {
     /// --units` records it.
     #[arg(long, default_value = "scale-free", value_parser = ["scale-free", "file"], value_name = "MODE")]
     pub units: String,
+    /// The surface analysed, as `keycomp index add --surface` records it: as-read (the meshes
+    /// and fragments as they are) or canonical (each remade as one surface of about 10,000
+    /// vertices).
+    #[arg(long, default_value = "as-read", value_parser = ["as-read", "canonical"], value_name = "MODE")]
+    pub surface: String,
     /// Ablation: patch radii of the description (comma-separated; 'none' for no patches)
     /// [default: the description's default levels].
     #[arg(long, value_name = "R,R,...")]
@@ -919,7 +924,8 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
             match_params.area_tolerance
         );
     }
-    let params = Profile::with(&detect.retrieval_params(), describe);
+    let params = Profile::with(&detect.retrieval_params(), describe)
+        .with_surface((args.surface == "canonical").then(keycomp_surface::SurfaceParams::default));
     let d2_params = D2Params {
         pairs: args.d2_pairs,
         seed: sub_seed(args.seed, "d2", 0),

@@ -9,6 +9,7 @@ use keycomp_components::DetectParams;
 use keycomp_describe::{DIM, DescribeParams};
 use keycomp_index::{IndexReader, IndexWriter, MANIFEST_NAME, ShapeRecord, canonical_path};
 use keycomp_mesh::{Mesh, read_mesh};
+use keycomp_surface::SurfaceParams;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -101,6 +102,9 @@ pub struct AddOptions {
     /// Length unit; `None`: the index's (scale-free for a new index). Other units than an
     /// index's are refused.
     pub units: Option<Units>,
+    /// Canonical surface (`true`) or meshes as read (`false`); `None`: the index's (as read
+    /// for a new index). Another choice than an index's is refused.
+    pub canonical: Option<bool>,
     /// `true`: a file that cannot be analysed is listed in [`AddSummary::failed`] and the others
     /// are stored, in commits of 32 shapes (the command line). `false`: the first failure is
     /// returned as the error and nothing of the call is stored (one commit).
@@ -178,8 +182,22 @@ fn open_for_add(
                     if file { "file" } else { "scale-free" }
                 )));
             }
+            if let Some(c) = options.canonical
+                && c != p.surface.is_some()
+            {
+                return Err(Error::Incomparable(format!(
+                    "index {} analyses {}; drop the surface option or use another index",
+                    dir.display(),
+                    if p.surface.is_some() {
+                        "canonical surfaces"
+                    } else {
+                        "meshes as read"
+                    }
+                )));
+            }
+            // the recorded detection parameters already carry the surface's Harris setting
             let detect = options.detect.clone().unwrap_or_else(|| p.detect.clone());
-            Profile::with(&detect, p.describe)
+            Profile::with(&detect, p.describe).with_surface(p.surface)
         }
         None => {
             let detect = options
@@ -187,7 +205,12 @@ fn open_for_add(
                 .clone()
                 .unwrap_or_else(|| crate::options::DetectOptions::default().retrieval_params());
             let describe = options.units.unwrap_or_default().describe_params(areas)?;
-            Profile::with(&detect, describe)
+            Profile::with(&detect, describe).with_surface(
+                options
+                    .canonical
+                    .unwrap_or(false)
+                    .then(SurfaceParams::default),
+            )
         }
     };
     // the recorded text where nothing changed: a profile written before a parameter existed

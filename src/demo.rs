@@ -92,6 +92,7 @@ fn index_files(index: &Path, files: &[PathBuf], params: &Profile) -> Result<(usi
     let options = AddOptions {
         detect: Some(params.detect.clone()),
         units: Some(Units::ScaleFree),
+        canonical: Some(params.surface.is_some()),
         keep_going: false,
     };
     let s = collection::add(index, files, &options, &bar);

@@ -51,6 +51,25 @@ impl UnitsArgs {
     }
 }
 
+/// What the commands that describe shapes (`index add`, `match`) analyse.
+#[derive(Debug, Clone, clap::Args)]
+pub struct SurfaceArgs {
+    /// The surface analysed: as-read (the mesh as the file gives it, the default for a new
+    /// index) or canonical (every input remade as one connected surface of about 10,000
+    /// vertices, the same whatever its tessellation: CAD soups, scans, meshes at other
+    /// resolutions). Point clouds are always analysed on their canonical surface. Recorded in
+    /// the index's profile; queries use the index's.
+    #[arg(long, value_name = "MODE", value_parser = ["as-read", "canonical"])]
+    pub surface: Option<String>,
+}
+
+impl SurfaceArgs {
+    /// `Some(true)`: canonical asked for; `Some(false)`: as read; `None`: not given.
+    pub fn canonical(&self) -> Option<bool> {
+        self.surface.as_deref().map(|s| s == "canonical")
+    }
+}
+
 /// Index subcommands.
 #[derive(Debug, clap::Subcommand)]
 pub enum IndexCommand {
@@ -111,6 +130,8 @@ pub struct AddArgs {
     pub detect: DetectArgs,
     #[command(flatten)]
     pub units: UnitsArgs,
+    #[command(flatten)]
+    pub surface: SurfaceArgs,
 }
 
 /// Arguments of `keycomp index remove`.
@@ -165,6 +186,7 @@ fn add(args: AddArgs) -> Result<ExitCode> {
     let options = AddOptions {
         detect: args.detect.explicit(),
         units: args.units.units()?,
+        canonical: args.surface.canonical(),
         keep_going: true,
     };
     let bar = Bar(progress(0, "indexing"));

@@ -18,6 +18,7 @@ mod query;
 mod render_cmd;
 mod repeatability;
 mod report;
+mod surface_cmd;
 mod transform;
 
 use std::process::ExitCode;
@@ -54,6 +55,10 @@ enum Command {
     /// Render a shaded PNG of a mesh, with key-components, response or keypoints coloured.
     #[command(after_help = render_cmd::EXAMPLES)]
     Render(render_cmd::Args),
+    /// Write the canonical surface keycomp analyses instead of the file: one connected
+    /// surface of a fixed density, from a mesh, a triangle soup, a range scan or a point cloud.
+    #[command(after_help = surface_cmd::EXAMPLES)]
+    Surface(surface_cmd::Args),
     /// Match two meshes part to part: key-components paired by descriptor, checked for layout and size.
     #[command(name = "match", after_help = match_cmd::EXAMPLES)]
     Match(match_cmd::Args),
@@ -94,6 +99,7 @@ fn main() -> ExitCode {
         Command::Index(cmd) => index_cmd::run(cmd),
         Command::Query(args) => query::run(args),
         Command::Render(args) => render_cmd::run(args),
+        Command::Surface(args) => surface_cmd::run(args),
         Command::Bench(cmd) => bench::run(cmd),
     };
     match result {

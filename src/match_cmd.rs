@@ -31,6 +31,8 @@ pub struct Args {
     pub detect: DetectArgs,
     #[command(flatten)]
     pub units: UnitsArgs,
+    #[command(flatten)]
+    pub surface: crate::index_cmd::SurfaceArgs,
     /// Weight of the pose check, 0–1: above 0, pairs of matched parts whose straight-line
     /// distances disagree (another pose) lower the score. 0 (default): no pose check.
     #[arg(long, value_name = "W", default_value_t = 0.0, value_parser = crate::output::unit_weight)]
@@ -91,6 +93,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
     let options = MatchOptions {
         detect: args.detect.explicit(),
         units: args.units.units()?.unwrap_or_default(),
+        canonical: args.surface.canonical().unwrap_or(false),
         pose_weight: args.pose,
         verify_weight: args.verify.0,
     };

@@ -8,6 +8,7 @@ use std::time::Instant;
 use keycomp_components::DetectParams;
 use keycomp_mesh::read_mesh;
 pub use keycomp_retrieval::MatchParams;
+use keycomp_surface::SurfaceParams;
 use serde::{Deserialize, Serialize};
 
 use crate::collection::Units;
@@ -76,6 +77,8 @@ pub struct MatchOptions {
     pub detect: Option<DetectParams>,
     /// Length unit; a file unit not given is the square root of B's area.
     pub units: Units,
+    /// Both sides analysed on their canonical surface ([`Profile::with_surface`]).
+    pub canonical: bool,
     /// Weight of the pose check (`keycomp_retrieval::MatchParams::pose_weight`, in [0, 1];
     /// default 0: no pose check).
     pub pose_weight: f64,
@@ -158,7 +161,8 @@ pub fn match_profile(options: &MatchOptions, b: &Path) -> Result<Profile, Error>
         .detect
         .clone()
         .unwrap_or_else(|| DetectOptions::default().retrieval_params());
-    Ok(Profile::with(&detect, describe))
+    Ok(Profile::with(&detect, describe)
+        .with_surface(options.canonical.then(SurfaceParams::default)))
 }
 
 /// Reads, analyses (in parallel) and matches the mesh files `a` and `b`; returns both

@@ -255,7 +255,8 @@ fn malformed_files_are_clear_errors_with_exit_2() {
             "OFF\n3 1 0\n0 0 0\nnan 0 0\n0 1 0\n3 0 1 2\n",
             "NaN",
         ),
-        ("mesh.xyz", "1 2 3\n", "unknown mesh format"),
+        ("mesh.abc", "1 2 3\n", "unknown file format"),
+        ("cloud.xyz", "1 2 3\n", "point cloud"),
     ];
     for (name, text, expect) in cases {
         let p = dir.path().join(name);

@@ -405,3 +405,60 @@ fn file_units_are_recorded_in_the_index() {
     assert!((v["results"][0]["score"].as_f64().expect("score") - 1.0).abs() < 1e-6);
     assert_eq!(v["results"].as_array().expect("results").len(), 2);
 }
+
+/// An index of canonical surfaces (`--surface canonical`) takes a bare point cloud as a query
+/// and finds the shape the points were taken from; the choice is recorded and another one is
+/// refused; `keycomp surface` writes the surface it analyses.
+#[test]
+fn canonical_surfaces_take_point_clouds() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (index, shape, other) = index_and_two_shapes(dir.path());
+    let o = keycomp(&[
+        "index",
+        "add",
+        s(&shape),
+        s(&other),
+        "--index",
+        s(&index),
+        "--surface",
+        "canonical",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // the sphere's vertices as points, without faces or normals
+    let cloud = dir.path().join("points.xyz");
+    let text: String = synth::textured_protrusion_sphere(6)
+        .positions
+        .iter()
+        .map(|p| format!("{} {} {}\n", p.x, p.y, p.z))
+        .collect();
+    std::fs::write(&cloud, text).expect("w");
+    let o = keycomp(&["query", s(&cloud), "--index", s(&index), "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: Value = serde_json::from_slice(&o.stdout).expect("json");
+    let first = v["results"][0]["path"].as_str().expect("path");
+    assert!(first.ends_with("textured.off"), "{first}");
+    // the index analyses canonical surfaces: meshes as read are refused, nothing added
+    let o = keycomp(&[
+        "index",
+        "add",
+        s(&cloud),
+        "--index",
+        s(&index),
+        "--surface",
+        "as-read",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("canonical surfaces"), "{}", stderr(&o));
+    let o = keycomp(&["index", "stats", "--index", s(&index), "--json"]);
+    let v: Value = serde_json::from_slice(&o.stdout).expect("json");
+    assert_eq!(v["shapes"], 2);
+    // the surface itself: about the default 10,000 vertices, closed like the sphere
+    let out = dir.path().join("surface.off");
+    let o = keycomp(&["surface", s(&cloud), "-o", s(&out), "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: Value = serde_json::from_slice(&o.stdout).expect("json");
+    let n = v["vertices"].as_u64().expect("vertices");
+    assert!((8_000..=12_000).contains(&n), "{n}");
+    assert_eq!(v["boundary_vertices"], 0);
+    assert!(read_mesh(&out).is_ok());
+}

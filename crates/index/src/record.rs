@@ -180,9 +180,10 @@ pub struct ShapeRecord<const D: usize> {
     pub canonical_path: PathBuf,
     /// Hash of the source file's bytes.
     pub content_hash: ContentHash,
-    /// Number of vertices of the mesh.
+    /// Number of vertices of the surface that was described, whose vertex ids the components
+    /// use: the mesh as read, or its canonical surface when the index's profile asks for it.
     pub vertex_count: u32,
-    /// Number of faces (triangles) of the mesh.
+    /// Number of faces (triangles) of that surface.
     pub face_count: u32,
     /// Surface area in the file's own units (before normalisation to area 1).
     pub surface_area: f64,
