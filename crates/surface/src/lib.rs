@@ -31,7 +31,8 @@
 //!    Where the point mirrored through the input (twice as deep on the other side) is outside
 //!    too, the face is kept only on the side its nearest sample's normal points to: a scan or a
 //!    fragment keeps one side and its boundary, a closed solid keeps everything (its mirror
-//!    points lie inside it). Pieces of less than [`SurfaceParams::min_piece`] of the area
+//!    points lie inside it). Only an input whose shell is at least [`SHEET_SHARE`] backs is
+//!    trimmed: a solid's thin parts, or a CAD soup's single-sided panels, stay closed. Pieces of less than [`SurfaceParams::min_piece`] of the area
 //!    (specks of sensor noise) are dropped.
 //! 5. **Back onto the input** ([`trim::project`]). Each vertex moves to the nearest point of the
 //!    input: of the mesh's triangles near it, or of the tangent plane of the nearest points of
@@ -71,6 +72,11 @@ pub const MAX_NODES: usize = 16_000_000;
 /// its area in cell faces unless it is aligned with the grid; measured on spheres and the
 /// test meshes).
 pub const NETS_DENSITY: f64 = 1.55;
+
+/// Share of the offset surface's faces that must be the back of a sheet for the input to be
+/// taken as open (a scan, a fragment: about half of its shell is the back) and trimmed to one
+/// side. Below it the input is a solid and keeps its whole shell.
+pub const SHEET_SHARE: f64 = 0.25;
 
 /// Parameters of [`canonical`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -276,7 +282,18 @@ fn build(
     let vol = volume::Volume::new(samples, h, r)?;
     let (mut positions, faces) = nets::surface_nets(&vol);
     let nearest = trim::Nearest::new(samples);
-    let trimmed = trim::one_sided(&vol, &nearest, &positions, faces);
+    let trimmed = trim::one_sided(&vol, &nearest, &positions, faces.clone());
+    // a solid's thin parts (a finger, a wing, a CAD model's single-sided panel) are sheets
+    // too, but most of its shell is not: it stays closed
+    let trimmed = if (trimmed.removed as f64) < SHEET_SHARE * faces.len() as f64 {
+        trim::Trimmed {
+            sheet: vec![false; faces.len()],
+            faces,
+            removed: 0,
+        }
+    } else {
+        trimmed
+    };
     let removed = trimmed.removed;
     trim::project(&mut positions, &trimmed.faces, &nearest, mesh, r);
     // projected onto a mesh, the skin wrapped around an open boundary collapses onto the

@@ -134,7 +134,7 @@ impl Volume {
         let [nx, ny, nz] = self.dims;
         let (h, origin) = (self.h, self.origin);
         let reach = reach(self.r, h);
-        let cells = (reach / h).ceil() as i64;
+        let span = reach / h;
         // samples sorted by z, to find those near a slab
         let mut by_z: Vec<(f64, u32)> = samples
             .positions
@@ -157,16 +157,18 @@ impl Volume {
                 let b = zs.partition_point(|&z| z <= z1);
                 for &(_, i) in &by_z[a..b] {
                     let p = samples.positions[i as usize];
+                    // the nodes within the reach along each axis
                     let q = (p - origin) / h;
-                    let (ci, cj, ck) = (q.x.round() as i64, q.y.round() as i64, q.z.round() as i64);
-                    let kk0 = (ck - cells).max(k0 as i64);
-                    let kk1 = (ck + cells).min(k1 as i64 - 1);
+                    let lo = |c: f64| (c - span).ceil() as i64;
+                    let hi = |c: f64| (c + span).floor() as i64;
+                    let kk0 = lo(q.z).max(k0 as i64);
+                    let kk1 = hi(q.z).min(k1 as i64 - 1);
                     for k in kk0..=kk1 {
                         let dz = origin.z + k as f64 * h - p.z;
-                        for j in (cj - cells).max(0)..=(cj + cells).min(ny as i64 - 1) {
+                        for j in lo(q.y).max(0)..=hi(q.y).min(ny as i64 - 1) {
                             let dy = origin.y + j as f64 * h - p.y;
                             let row = ((k as usize - k0) * ny + j as usize) * nx;
-                            for ii in (ci - cells).max(0)..=(ci + cells).min(nx as i64 - 1) {
+                            for ii in lo(q.x).max(0)..=hi(q.x).min(nx as i64 - 1) {
                                 let dx = origin.x + ii as f64 * h - p.x;
                                 let d2 = dx * dx + dy * dy + dz * dz;
                                 if d2 <= reach * reach {
