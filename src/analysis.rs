@@ -165,6 +165,8 @@ pub struct Analysed {
     pub ms: f64,
     /// The length unit it was described in.
     pub units: keycomp_describe::Units,
+    /// Whether it was analysed on its canonical surface ([`Profile::surface`]).
+    pub canonical: bool,
 }
 
 /// What a mesh is analysed as.
@@ -274,6 +276,7 @@ fn analyse_in(
         hypotheses,
         ms: t.elapsed().as_secs_f64() * 1e3,
         units: profile.describe.units,
+        canonical: profile.surface.is_some(),
     })
 }
 
@@ -369,9 +372,13 @@ impl Analysed {
     }
 
     /// Verification's weight with this shape as the query: `weight` when given, else by its
-    /// boundary and unit mode (`keycomp_retrieval::verify_weight_for`).
+    /// boundary, unit mode and surface (`keycomp_retrieval::verify_weight_for`).
     pub fn verify_weight(&self, weight: Option<f64>) -> f64 {
-        keycomp_retrieval::verify_weight_for(self.boundary_vertices(), self.file_units(), weight)
+        keycomp_retrieval::verify_weight_for(
+            self.boundary_vertices(),
+            self.file_units() || self.canonical,
+            weight,
+        )
     }
 
     /// Its surface sample as `keycomp_retrieval::ShapeView::sample` wants it; empty when

@@ -748,6 +748,7 @@ fn kc_ranking(
     index_of: &HashMap<PathBuf, usize>,
     match_params: &MatchParams,
     verify: Option<f64>,
+    canonical: bool,
 ) -> Result<Vec<usize>> {
     let Some(record) = records.first() else {
         return Ok(Vec::new());
@@ -755,7 +756,7 @@ fn kc_ranking(
     let match_params = &MatchParams {
         verify_weight: keycomp_retrieval::verify_weight_for(
             record.boundary_vertices as usize,
-            match_params.file_units,
+            match_params.file_units || canonical,
             verify,
         ),
         ..*match_params
@@ -1078,6 +1079,7 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
                 &index_of,
                 &match_params,
                 args.verify_weight,
+                params.surface.is_some(),
             )?;
             let kc_order = complete_ranking(
                 &returned,
@@ -1217,7 +1219,14 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
         }
         let (returned, components, error) = match &rec {
             Ok(r) => (
-                kc_ranking(&reader, r, &index_of, &match_params, args.verify_weight)?,
+                kc_ranking(
+                    &reader,
+                    r,
+                    &index_of,
+                    &match_params,
+                    args.verify_weight,
+                    params.surface.is_some(),
+                )?,
                 r.first().map_or(0, |r| r.components.len()),
                 None,
             ),

@@ -152,21 +152,23 @@ impl Default for MatchParams {
 /// [`verify_weight_for`].
 pub const FRAGMENT_VERIFY_WEIGHT: f64 = 0.5;
 
-/// The same in file units ([`MatchParams::file_units`]): the alignment is rigid there, with
-/// no scale to guess, so its fitness is trusted in full.
+/// The same in file units ([`MatchParams::file_units`]), where the alignment is rigid with no
+/// scale to guess, and on canonical surfaces, where query and shape are sampled alike
+/// whatever their files' tessellations: the fitness is trusted in full.
 pub const FRAGMENT_VERIFY_WEIGHT_FILE_UNITS: f64 = 1.0;
 
 /// The verification weight for a query with `boundary_vertices` vertices on its boundary:
 /// `weight` when given, else for a query with a boundary [`FRAGMENT_VERIFY_WEIGHT`]
-/// ([`FRAGMENT_VERIFY_WEIGHT_FILE_UNITS`] when `file_units`), and 0 for a closed one. A
+/// ([`FRAGMENT_VERIFY_WEIGHT_FILE_UNITS`] when `trusted`: file units or canonical surfaces),
+/// and 0 for a closed one. A
 /// fragment or a scan is a piece of one surface in one pose, and where it lies on a shape is
 /// what identifies its source; a closed shape is sought by its kind, in any pose (on FAUST,
 /// whose classes are subjects in ten poses, verification of whole shapes lowered NN / mAP
 /// from 0.870 / 0.607 to 0.720 / 0.451: BENCHMARKS.md, *Geometric verification*).
-pub fn verify_weight_for(boundary_vertices: usize, file_units: bool, weight: Option<f64>) -> f64 {
+pub fn verify_weight_for(boundary_vertices: usize, trusted: bool, weight: Option<f64>) -> f64 {
     match weight {
         Some(w) => w,
-        None if boundary_vertices > 0 && file_units => FRAGMENT_VERIFY_WEIGHT_FILE_UNITS,
+        None if boundary_vertices > 0 && trusted => FRAGMENT_VERIFY_WEIGHT_FILE_UNITS,
         None if boundary_vertices > 0 => FRAGMENT_VERIFY_WEIGHT,
         None => 0.0,
     }
