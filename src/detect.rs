@@ -9,9 +9,10 @@ use anyhow::{Context, Result};
 use keycomp::json::DetectionJson;
 use keycomp::options::DetectOptions;
 use keycomp_components::{DetectParams, Detection, Preset, detect};
-use keycomp_mesh::{Mesh, read_mesh};
+use keycomp_mesh::{Geometry, Mesh, read_input};
 use keycomp_mser::Method;
 use keycomp_mser::MserParams;
+use keycomp_surface::SurfaceParams;
 use serde::Serialize;
 
 use crate::keypoints::HarrisArgs;
@@ -26,10 +27,16 @@ pub const EXAMPLES: &str = "Examples:
 /// Arguments of `keycomp detect`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Mesh file (.off, .obj, .ply, .stl, .gltf, .glb).
+    /// Mesh file (.off, .obj, .ply, .stl, .gltf, .glb), range scan (PLY range grid) or point
+    /// cloud (.xyz, .pts, .pcd, or a PLY, OFF or OBJ without faces).
     pub mesh: PathBuf,
     #[command(flatten)]
     pub detect: DetectArgs,
+    /// Detect on the mesh as read (the default) or on its canonical surface (`keycomp
+    /// surface`), whose vertices the output's ids then are. A point cloud is always detected on
+    /// its canonical surface.
+    #[arg(long, value_name = "MODE", value_parser = ["as-read", "canonical"])]
+    pub surface: Option<String>,
     /// Print JSON (mesh, counts, area, preset, params, keypoints, components, timings_ms).
     #[arg(long)]
     pub json: bool,
@@ -255,11 +262,24 @@ pub fn component_colors(mesh: &Mesh, det: &Detection) -> Vec<[u8; 3]> {
 }
 
 pub fn run(args: Args) -> Result<ExitCode> {
-    let params = args.detect.params();
+    let mut params = args.detect.params();
     let t0 = Instant::now();
-    let loaded = read_mesh(&args.mesh)?;
+    let loaded = read_input(&args.mesh)?;
+    for w in &loaded.warnings {
+        eprintln!("warning: {}: {w}", args.mesh.display());
+    }
+    let mesh = match loaded.geometry {
+        Geometry::Mesh(m) if args.surface.as_deref() != Some("canonical") => m,
+        geometry => {
+            // as in the analysis: no keypoints from fits that reach a scan's border
+            params.harris.skip_boundary = true;
+            keycomp::analysis::canonical_surface(&geometry, &SurfaceParams::default())
+                .with_context(|| format!("{}: no canonical surface", args.mesh.display()))?
+                .mesh
+        }
+    };
     let read_ms = t0.elapsed().as_secs_f64() * 1e3;
-    let mesh = &loaded.mesh;
+    let mesh = &mesh;
     let mser_params = args.method.mser_output().map(|_| MserParams::default());
     let (det, mser_timings) = match (args.method.mser_output(), &mser_params) {
         (Some(out), Some(mp)) => {
