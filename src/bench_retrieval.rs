@@ -183,7 +183,7 @@ pub struct Args {
     pub pose_tolerance: Option<f64>,
     /// Ablation: how much geometric verification weighs (`MatchParams::verify_weight`, in
     /// [0, 1]) for every query [default: automatic, `keycomp_retrieval::verify_weight_for`:
-    /// 0.5 for a fragment (1 in file units), 0 for a whole shape].
+    /// 0.5 for a fragment (1 in file units or on canonical surfaces), 0 for a whole shape].
     #[arg(long, value_name = "W", value_parser = crate::output::unit_weight)]
     pub verify_weight: Option<f64>,
     /// Ablation: geometric verification's tolerance (`MatchParams::verify_tolerance`, > 0)

@@ -33,7 +33,8 @@ pub struct Args {
     #[arg(long, value_name = "W", default_value_t = 0.0, value_parser = crate::output::unit_weight)]
     pub pose: f64,
     /// Weight of geometric verification, 0–1, or auto (the default: 0.5 for a query with a
-    /// boundary, a fragment or a scan, 1 in file units; 0 for a closed shape): each shape's
+    /// boundary, a fragment or a scan, 1 in file units or on canonical surfaces; 0 for a closed
+    /// shape): each shape's
     /// score is scaled by 1 − W·(1 − f), f the share of the query's surface that lies on the
     /// shape once aligned by the matched parts, so a fragment's exact source ranks first. It
     /// re-ranks the 32 best candidates; those beyond count as fitness 0.
