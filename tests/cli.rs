@@ -559,3 +559,95 @@ fn counts_of_zero_are_refused_with_exit_2() {
         );
     }
 }
+
+/// A PLY range grid (the Stanford scanner's layout: `obj_info num_cols/num_rows`, one list of
+/// 0 or 1 vertex index per cell) of a `n × n` bump, every cell present.
+fn range_grid_ply(n: usize) -> String {
+    let mut s = format!(
+        "ply\nformat ascii 1.0\nobj_info scanner: synthetic\nobj_info num_cols {n}\n\
+         obj_info num_rows {n}\nelement vertex {}\nproperty float x\nproperty float y\n\
+         property float z\nelement range_grid {}\nproperty list uchar int vertex_indices\n\
+         end_header\n",
+        n * n,
+        n * n
+    );
+    for r in 0..n {
+        for c in 0..n {
+            let (x, y) = (c as f64 / n as f64 - 0.5, r as f64 / n as f64 - 0.5);
+            let z = 0.3 * (-(x * x + y * y) * 8.0).exp() + 0.05 * (9.0 * x).sin() * (7.0 * y).cos();
+            s += &format!("{x} {y} {z}\n");
+        }
+    }
+    for i in 0..n * n {
+        s += &format!("1 {i}\n");
+    }
+    s
+}
+
+/// Scans and point clouds as scanners write them are read and analysed; malformed ones get
+/// exit 2 with the file and the problem, and a header declaring a billion points allocates
+/// nothing for them.
+#[test]
+fn scans_and_point_clouds_in_and_malformed_ones_out() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let grid = dir.path().join("scan.ply");
+    std::fs::write(&grid, range_grid_ply(60)).expect("w");
+    let cloud = dir.path().join("scan.xyz");
+    let text = range_grid_ply(60)
+        .lines()
+        .skip_while(|l| *l != "end_header")
+        .skip(1)
+        .take(3600)
+        .map(|l| format!("{l}\n"))
+        .collect::<String>();
+    std::fs::write(&cloud, text).expect("w");
+    for p in [&grid, &cloud] {
+        let o = keycomp(&["detect", p.to_str().expect("utf8"), "--json"]);
+        assert!(o.status.success(), "{}: {}", p.display(), stderr(&o));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("json");
+        assert!(v["vertices"].as_u64().expect("vertices") > 1000, "{v}");
+    }
+
+    let header = "ply\nformat ascii 1.0\nobj_info num_cols 2\nobj_info num_rows 2\n\
+                  element vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+                  element range_grid 4\nproperty list uchar int vertex_indices\nend_header\n\
+                  0 0 0\n1 0 0\n0 1 0\n";
+    let cases: &[(&str, String, &str)] = &[
+        ("truncated.ply", format!("{header}1 0\n1 1\n"), "truncated"),
+        (
+            "index.ply",
+            format!("{header}1 0\n1 1\n1 9\n1 2\n"),
+            "out of range",
+        ),
+        ("nan.xyz", "0 0 0\n1 nan 0\n0 1 0\n".to_string(), "NaN"),
+        (
+            "billion.ply",
+            "ply\nformat ascii 1.0\nelement vertex 1000000000\nproperty float x\n\
+             property float y\nproperty float z\nend_header\n0 0 0\n"
+                .to_string(),
+            "truncated",
+        ),
+        (
+            "billion.pcd",
+            "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 1000000000\n\
+             HEIGHT 1\nPOINTS 1000000000\nDATA binary\nabc"
+                .to_string(),
+            "truncated",
+        ),
+    ];
+    for (name, text, expect) in cases {
+        let p = dir.path().join(name);
+        std::fs::write(&p, text).expect("write case");
+        let o = keycomp(&["detect", p.to_str().expect("utf8")]);
+        assert_eq!(o.status.code(), Some(2), "{name}: {}", stderr(&o));
+        let e = stderr(&o);
+        assert!(
+            e.contains(name),
+            "{name}: error does not name the file: {e}"
+        );
+        assert!(
+            e.to_lowercase().contains(&expect.to_lowercase()),
+            "{name}: expected '{expect}' in: {e}"
+        );
+    }
+}
