@@ -143,6 +143,10 @@ pub struct Args {
     /// vertices).
     #[arg(long, default_value = "as-read", value_parser = ["as-read", "canonical"], value_name = "MODE")]
     pub surface: String,
+    /// Ablation: the canonical surface's vertex budget, with `--surface canonical` [default:
+    /// 10,000].
+    #[arg(long, value_name = "N")]
+    pub surface_vertices: Option<usize>,
     /// Ablation: patch radii of the description (comma-separated; 'none' for no patches)
     /// [default: the description's default levels].
     #[arg(long, value_name = "R,R,...")]
@@ -925,8 +929,15 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
             match_params.area_tolerance
         );
     }
+    let surface = keycomp_surface::SurfaceParams {
+        vertices: args
+            .surface_vertices
+            .unwrap_or(keycomp_surface::SurfaceParams::default().vertices),
+        ..keycomp_surface::SurfaceParams::default()
+    };
+    surface.validate()?;
     let params = Profile::with(&detect.retrieval_params(), describe)
-        .with_surface((args.surface == "canonical").then(keycomp_surface::SurfaceParams::default));
+        .with_surface((args.surface == "canonical").then_some(surface));
     let d2_params = D2Params {
         pairs: args.d2_pairs,
         seed: sub_seed(args.seed, "d2", 0),
