@@ -54,14 +54,21 @@ impl BoundingBox {
 /// stray point far away does not change neighbourhood sizes). Computed from the vertices
 /// themselves, never including the origin unless a vertex is there.
 pub fn bounding_box(mesh: &Mesh) -> BoundingBox {
+    bounding_box_of(
+        mesh.faces
+            .iter()
+            .flatten()
+            .map(|&v| mesh.positions[v as usize]),
+    )
+}
+
+/// Bounding box of `points` (min at +∞ and max at −∞ when there are none).
+pub fn bounding_box_of(points: impl IntoIterator<Item = Point3<f64>>) -> BoundingBox {
     let mut min = Point3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY);
     let mut max = Point3::new(f64::NEG_INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY);
-    for f in &mesh.faces {
-        for &v in f {
-            let p = mesh.positions[v as usize];
-            min = min.inf(&p);
-            max = max.sup(&p);
-        }
+    for p in points {
+        min = min.inf(&p);
+        max = max.sup(&p);
     }
     BoundingBox { min, max }
 }

@@ -282,7 +282,7 @@ fn build(
     let vol = volume::Volume::new(samples, h, r)?;
     let (mut positions, faces) = nets::surface_nets(&vol);
     let nearest = trim::Nearest::new(samples);
-    let trimmed = trim::one_sided(&vol, &nearest, &positions, faces.clone());
+    let trimmed = trim::one_sided(&vol, &nearest, &positions, &faces);
     // a solid's thin parts (a finger, a wing, a CAD model's single-sided panel) are sheets
     // too, but most of its shell is not: it stays closed
     let trimmed = if (trimmed.removed as f64) < SHEET_SHARE * faces.len() as f64 {

@@ -22,22 +22,20 @@
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
-use keycomp_mesh::geometry::BoundingBox;
+use keycomp_mesh::geometry::{self, BoundingBox};
 use keycomp_mesh::{Point3, Vector3};
-use kiddo::SquaredEuclidean;
-use kiddo::immutable::float::kdtree::ImmutableKdTree;
 use nalgebra::Matrix3;
+use rayon::prelude::*;
 
 use crate::SurfaceError;
 use crate::sample::{Samples, thin};
+use crate::trim::{kd_tree, nearest_ids};
 
 /// Points in a normal's PCA neighbourhood (the point itself included).
 pub const NEIGHBOURS: usize = 12;
 
 /// Most points whose nearest-neighbour distance is measured for the spacing estimate.
 const SPACING_PROBES: usize = 4096;
-
-type Tree = ImmutableKdTree<f64, u32, 3, 32>;
 
 /// A point cloud prepared for [`crate::canonical`].
 #[derive(Debug, Clone)]
@@ -78,15 +76,15 @@ impl Cloud {
         if pts.len() < 3 {
             return Err(SurfaceError::NoArea);
         }
-        let tree = tree_of(&pts);
+        let tree = kd_tree(&pts);
         let step = (pts.len() / SPACING_PROBES).max(1);
         let mut d: Vec<f64> = (0..pts.len())
             .step_by(step)
             .filter_map(|i| {
                 let p = pts[i];
-                tree.nearest_n::<SquaredEuclidean>(&[p.x, p.y, p.z], std::num::NonZero::new(4)?)
+                nearest_ids(&tree, &p, 4)
                     .into_iter()
-                    .map(|nb| nb.distance.sqrt())
+                    .map(|j| (pts[j as usize] - p).norm())
                     .find(|&x| x > 0.0)
             })
             .collect();
@@ -114,13 +112,7 @@ impl Cloud {
 
     /// The points' bounding box.
     pub fn bounding_box(&self) -> BoundingBox {
-        let mut min = Point3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY);
-        let mut max = -min;
-        for p in &self.positions {
-            min = min.inf(p);
-            max = max.sup(p);
-        }
-        BoundingBox { min, max }
+        geometry::bounding_box_of(self.positions.iter().copied())
     }
 
     /// The points thinned to one per cube of side `s/2`, with oriented normals (see the module
@@ -136,19 +128,11 @@ impl Cloud {
             faces: vec![crate::sample::NO_FACE; self.positions.len()],
         };
         let mut kept = thin(given, 0.5 * s);
-        let tree = tree_of(&kept.positions);
-        let k = NEIGHBOURS.min(kept.positions.len());
+        let tree = kd_tree(&kept.positions);
         let neighbours: Vec<Vec<u32>> = kept
             .positions
-            .iter()
-            .map(|p| match std::num::NonZero::new(k) {
-                Some(k) => tree
-                    .nearest_n::<SquaredEuclidean>(&[p.x, p.y, p.z], k)
-                    .into_iter()
-                    .map(|nb| nb.item)
-                    .collect(),
-                None => Vec::new(),
-            })
+            .par_iter()
+            .map(|p| nearest_ids(&tree, p, NEIGHBOURS))
             .collect();
         let mut gaps: Vec<f64> = kept
             .positions
@@ -169,16 +153,11 @@ impl Cloud {
     }
 }
 
-fn tree_of(points: &[Point3<f64>]) -> Tree {
-    let coords: Vec<[f64; 3]> = points.iter().map(|p| [p.x, p.y, p.z]).collect();
-    ImmutableKdTree::new_from_slice(&coords)
-}
-
 /// PCA normals of `points` (neighbours of each given), oriented (steps 1–3 of the module docs).
 fn fitted_normals(points: &[Point3<f64>], neighbours: &[Vec<u32>]) -> Vec<Vector3<f64>> {
     let n = points.len();
     let mut normals: Vec<Vector3<f64>> = neighbours
-        .iter()
+        .par_iter()
         .map(|nb| {
             let m = nb.len().max(1) as f64;
             let c = nb

@@ -22,19 +22,40 @@ use crate::SurfaceError;
 use crate::sample::Samples;
 use crate::volume::Volume;
 
+/// A KD-tree over points (their indices as items).
+pub(crate) type Tree = ImmutableKdTree<f64, u32, 3, 32>;
+
+/// The KD-tree of `points`.
+pub(crate) fn kd_tree(points: &[Point3<f64>]) -> Tree {
+    let coords: Vec<[f64; 3]> = points.iter().map(|p| [p.x, p.y, p.z]).collect();
+    ImmutableKdTree::new_from_slice(&coords)
+}
+
+/// The indices of the `k` points of `tree` nearest `x`, nearest first (fewer when the tree
+/// has fewer points).
+pub(crate) fn nearest_ids(tree: &Tree, x: &Point3<f64>, k: usize) -> Vec<u32> {
+    match std::num::NonZero::new(k.min(tree.size())) {
+        Some(k) => tree
+            .nearest_n::<SquaredEuclidean>(&[x.x, x.y, x.z], k)
+            .into_iter()
+            .map(|nb| nb.item)
+            .collect(),
+        None => Vec::new(),
+    }
+}
+
 /// Nearest-sample queries over the samples.
 pub struct Nearest<'a> {
     samples: &'a Samples,
-    tree: ImmutableKdTree<f64, u32, 3, 32>,
+    tree: Tree,
 }
 
 impl<'a> Nearest<'a> {
     /// The search structure of `samples`.
     pub fn new(samples: &'a Samples) -> Self {
-        let coords: Vec<[f64; 3]> = samples.positions.iter().map(|p| [p.x, p.y, p.z]).collect();
         Nearest {
             samples,
-            tree: ImmutableKdTree::new_from_slice(&coords),
+            tree: kd_tree(&samples.positions),
         }
     }
 
@@ -51,16 +72,8 @@ impl<'a> Nearest<'a> {
     }
 
     /// The `k` samples nearest `x`, nearest first.
-    fn nearest_k(&self, x: &Point3<f64>, k: usize) -> Vec<usize> {
-        match std::num::NonZero::new(k.min(self.samples.positions.len())) {
-            Some(k) => self
-                .tree
-                .nearest_n::<SquaredEuclidean>(&[x.x, x.y, x.z], k)
-                .into_iter()
-                .map(|nb| nb.item as usize)
-                .collect(),
-            None => Vec::new(),
-        }
+    fn nearest_k(&self, x: &Point3<f64>, k: usize) -> Vec<u32> {
+        nearest_ids(&self.tree, x, k)
     }
 }
 
@@ -93,7 +106,7 @@ pub fn one_sided(
     vol: &Volume,
     nearest: &Nearest,
     positions: &[Point3<f64>],
-    faces: Vec<[u32; 3]>,
+    faces: &[[u32; 3]],
 ) -> Trimmed {
     // per face: (kept, on a sheet)
     let verdict: Vec<(bool, bool)> = faces
@@ -113,7 +126,7 @@ pub fn one_sided(
         .collect();
     let before = faces.len();
     let (mut kept, mut sheet) = (Vec::with_capacity(before), Vec::with_capacity(before));
-    for (f, (k, s)) in faces.into_iter().zip(verdict) {
+    for (&f, (k, s)) in faces.iter().zip(verdict) {
         if k {
             kept.push(f);
             sheet.push(s);
@@ -194,7 +207,7 @@ fn project_all(positions: &mut [Point3<f64>], nearest: &Nearest, mesh: Option<&M
             Some(mesh) => near
                 .iter()
                 .filter_map(|&i| {
-                    let f = samples.faces[i] as usize;
+                    let f = samples.faces[i as usize] as usize;
                     (f < mesh.faces.len()).then(|| closest_on_triangle(x, &mesh.triangle(f)))
                 })
                 .min_by(|a, b| {
@@ -203,7 +216,10 @@ fn project_all(positions: &mut [Point3<f64>], nearest: &Nearest, mesh: Option<&M
                         .total_cmp(&(*b - *x).norm_squared())
                 }),
             None => {
-                let (p, n) = (samples.positions[first], samples.normals[first]);
+                let (p, n) = (
+                    samples.positions[first as usize],
+                    samples.normals[first as usize],
+                );
                 (n.norm_squared() > 0.0).then(|| *x - n * (*x - p).dot(&n))
             }
         };
