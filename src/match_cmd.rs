@@ -99,6 +99,11 @@ pub fn run(args: Args) -> Result<ExitCode> {
         verify_weight: args.verify.0,
     };
     let (a, b, m) = match_files(&args.a, &args.b, &options)?;
+    for (path, analysed) in [(&args.a, &a), (&args.b, &b)] {
+        for w in &analysed.warnings {
+            eprintln!("warning: {}: {w}", path.display());
+        }
+    }
     let match_ms = m.timings_ms.matching;
     if let Some(out) = &args.ply_a {
         let pairs: Vec<(usize, usize)> = m

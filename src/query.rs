@@ -62,6 +62,9 @@ pub fn run(args: Args) -> Result<ExitCode> {
     searcher.set_verify_weight(args.verify.0)?;
     let reader = searcher.reader();
     let (q, ranked, answer) = searcher.query_full(&args.mesh, args.k)?;
+    for w in &q.warnings {
+        eprintln!("warning: {}: {w}", args.mesh.display());
+    }
     let QueryTimings {
         describe: describe_ms,
         open: open_ms,
