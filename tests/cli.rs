@@ -239,6 +239,20 @@ fn missing_file_is_a_clear_error_with_exit_2() {
     assert!(o.stdout.is_empty());
 }
 
+/// Exit 2 with an error that names the file `name` and says `expect` (any case).
+fn assert_clear_error(o: &std::process::Output, name: &str, expect: &str) {
+    assert_eq!(o.status.code(), Some(2), "{name}: {}", stderr(o));
+    let e = stderr(o);
+    assert!(
+        e.contains(name),
+        "{name}: error does not name the file: {e}"
+    );
+    assert!(
+        e.to_lowercase().contains(&expect.to_lowercase()),
+        "{name}: expected '{expect}' in: {e}"
+    );
+}
+
 #[test]
 fn malformed_files_are_clear_errors_with_exit_2() {
     let dir = tempfile::tempdir().expect("tempdir");
@@ -262,16 +276,7 @@ fn malformed_files_are_clear_errors_with_exit_2() {
         let p = dir.path().join(name);
         std::fs::write(&p, text).expect("write case");
         let o = keycomp(&["keypoints", p.to_str().expect("utf8")]);
-        assert_eq!(o.status.code(), Some(2), "{name}: {}", stderr(&o));
-        let e = stderr(&o);
-        assert!(
-            e.contains(name),
-            "{name}: error does not name the file: {e}"
-        );
-        assert!(
-            e.to_lowercase().contains(&expect.to_lowercase()),
-            "{name}: expected '{expect}' in: {e}"
-        );
+        assert_clear_error(&o, name, expect);
     }
 }
 
@@ -639,15 +644,6 @@ fn scans_and_point_clouds_in_and_malformed_ones_out() {
         let p = dir.path().join(name);
         std::fs::write(&p, text).expect("write case");
         let o = keycomp(&["detect", p.to_str().expect("utf8")]);
-        assert_eq!(o.status.code(), Some(2), "{name}: {}", stderr(&o));
-        let e = stderr(&o);
-        assert!(
-            e.contains(name),
-            "{name}: error does not name the file: {e}"
-        );
-        assert!(
-            e.to_lowercase().contains(&expect.to_lowercase()),
-            "{name}: expected '{expect}' in: {e}"
-        );
+        assert_clear_error(&o, name, expect);
     }
 }
