@@ -206,15 +206,6 @@ pub fn analyse_mesh_as(mesh: Mesh, profile: &Profile, role: Role) -> Result<Anal
     analyse_in(Geometry::Mesh(mesh), profile, None, role)
 }
 
-/// Detects and describes a mesh or a point cloud in memory under `profile`, as `role`.
-pub fn analyse_geometry_as(
-    geometry: Geometry,
-    profile: &Profile,
-    role: Role,
-) -> Result<Analysed, Error> {
-    analyse_in(geometry, profile, None, role)
-}
-
 /// The canonical surface of `geometry` under `params` (`keycomp_surface::canonical`).
 pub fn canonical_surface(
     geometry: &Geometry,

@@ -61,7 +61,7 @@ pub mod volume;
 
 pub use error::SurfaceError;
 
-use keycomp_mesh::{Mesh, Point3, Topology, Vector3, geometry};
+use keycomp_mesh::{Mesh, Point3, Vector3, geometry};
 use serde::{Deserialize, Serialize};
 
 /// Most grid nodes of the offset volume (about 5 bytes each).
@@ -92,10 +92,6 @@ pub struct SurfaceParams {
     /// Pieces of the result with less than this fraction of its area are dropped (default
     /// 0.002): specks around outliers of a scan.
     pub min_piece: f64,
-    /// Share of [`SurfaceParams::vertices`] an open surface (a fragment, a scan) aims at, in
-    /// (0, 1]: a fragment is a piece of a larger shape, so that its density relative to the
-    /// whole shape is about the collection's.
-    pub open_share: f64,
 }
 
 impl SurfaceParams {
@@ -126,12 +122,6 @@ impl SurfaceParams {
                 self.min_piece
             )));
         }
-        if !(self.open_share.is_finite() && self.open_share > 0.0 && self.open_share <= 1.0) {
-            return Err(SurfaceError::Params(format!(
-                "open_share must be in (0, 1], got {}",
-                self.open_share
-            )));
-        }
         Ok(())
     }
 }
@@ -142,7 +132,6 @@ impl Default for SurfaceParams {
             vertices: 10_000,
             offset: 1.0,
             min_piece: 0.002,
-            open_share: 1.0,
         }
     }
 }
@@ -221,16 +210,10 @@ pub fn canonical(input: Input, params: &SurfaceParams) -> Result<Surface, Surfac
     };
     let mut h = spacing_for(first_area, target);
     let mut surface = make(h)?;
-    // at most two corrections of the spacing: from the area actually made (a soup's hidden
-    // faces, a cloud's estimate), and for an open surface its smaller budget
+    // at most two corrections of the spacing, from the area actually made (a soup's hidden
+    // faces are in the input's area, not in its outer surface; a cloud's area is an estimate)
     for _ in 0..2 {
-        let open = !Topology::new(&surface.mesh).boundary_vertices().is_empty();
-        let goal = if open {
-            target * params.open_share
-        } else {
-            target
-        };
-        let next = spacing_for(geometry::total_area(&surface.mesh), goal);
+        let next = spacing_for(geometry::total_area(&surface.mesh), target);
         if next.is_nan() || next <= 0.0 || (next / h - 1.0).abs() < 0.15 {
             break;
         }

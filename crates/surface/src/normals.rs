@@ -105,11 +105,6 @@ impl Cloud {
         self.positions.len() as f64 * self.spacing * self.spacing
     }
 
-    /// Median distance from a point to its nearest distinct neighbour.
-    pub fn spacing(&self) -> f64 {
-        self.spacing
-    }
-
     /// The points' bounding box.
     pub fn bounding_box(&self) -> BoundingBox {
         geometry::bounding_box_of(self.positions.iter().copied())
