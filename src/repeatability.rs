@@ -29,6 +29,7 @@ pub const EXAMPLES: &str = "Examples:
   keycomp bench repeatability --preset all          # the paper's KC-1..3 (Tables 1-3)
   keycomp bench repeatability --preset kc1 --kinds noise,sampling --strengths 1,5
   keycomp bench repeatability --tessellation-independent --out bench-out/repeatability-ti
+  keycomp bench repeatability --surface canonical --out bench-out/repeatability-canonical
   keycomp bench repeatability --method mser,mser-kc --out bench-out/repeatability-mser
   keycomp bench repeatability --data my-null-shapes/ --count 200 --json > results.json
 
@@ -67,8 +68,15 @@ pub struct Args {
     /// Tessellation-independent keypoint budget: the null shape and every shape made from it
     /// get the preset's fraction (1 %, robust's 2 %) of the null shape's vertex count (a fixed
     /// count per unit of normalised area) instead of that fraction of their own.
-    #[arg(long, conflicts_with_all = ["fraction", "count"])]
+    #[arg(long, conflicts_with_all = ["fraction", "count", "surface"])]
     pub tessellation_independent: bool,
+    /// The surface key-components are detected on: as-read (each shape as generated, the
+    /// paper's experiment) or canonical (each shape remade as `--surface canonical` analyses
+    /// it, about 10,000 vertices whatever its tessellation, the components carried back to the
+    /// shape's vertices to be measured; Harris skips fits touching a border, as in canonical
+    /// profiles). MSER methods always run on the shapes as generated.
+    #[arg(long, value_name = "MODE", default_value = "as-read", value_parser = ["as-read", "canonical"])]
+    pub surface: String,
     /// Override R of every preset (marks it with *).
     #[arg(long = "r", value_name = "R")]
     pub r: Option<f64>,
@@ -228,6 +236,10 @@ impl Args {
         if let Some(n) = self.smoothing {
             harris.smoothing_iterations = n;
         }
+        let surface = (self.surface == "canonical").then(keycomp_surface::SurfaceParams::default);
+        if surface.is_some() {
+            harris.skip_boundary = true;
+        }
         let base_smacof = lead.map_or_else(SmacofParams::default, |p| p.component_params().smacof);
         let budget = if self.tessellation_independent {
             Budget::NullCalibrated(match base.selection {
@@ -274,6 +286,7 @@ impl Args {
             seed: self.seed,
             cache,
             parallel_shapes: !self.sequential,
+            surface,
         }
     }
 }

@@ -66,11 +66,13 @@ use keycomp_components::{ClusterParams, GeodesicOptions, SmacofParams, SphereRul
 use keycomp_harris::{HarrisParams, Selection};
 use keycomp_mesh::geometry::vertex_areas;
 use keycomp_mesh::{Format, Mesh, Topology, VertexId, read_mesh};
+use keycomp_surface::{Input, SurfaceParams, canonical};
 use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::BenchError;
 use crate::cache::{EmbeddingCache, Lookup, MserEntry, cache_key, mser_cache_key};
+use crate::canonical::Carrier;
 use crate::evaluate::{
     CumulativeTable, Pullback, Record, TableRow, best_overlaps, mean_overlap_table,
     repeatability_curve, repeatability_table,
@@ -404,6 +406,10 @@ pub struct Config {
     pub cache: Option<EmbeddingCache>,
     /// Run shapes in parallel (each detection parallelises internally as well).
     pub parallel_shapes: bool,
+    /// Detect on each shape's canonical surface ([`keycomp_surface::canonical`]) instead of
+    /// the mesh as generated, the components carried back to the mesh's vertices
+    /// ([`crate::canonical`]); `None`: on the mesh itself. Key-components only.
+    pub surface: Option<SurfaceParams>,
 }
 
 /// Progress of a run, reported after each shape.
@@ -596,6 +602,10 @@ pub struct Report {
     pub geodesic: GeodesicOptions,
     /// Parameters of the MSER methods (used by presets `MSER` and `MSER-KC` only).
     pub mser: MserParams,
+    /// The canonical surface key-components were detected on ([`Config::surface`]); absent:
+    /// on the meshes themselves.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub surface: Option<SurfaceParams>,
     /// Overlap thresholds of the curves.
     pub thresholds: Vec<f64>,
     /// Null shapes and their poses.
@@ -713,8 +723,19 @@ impl Config {
             }
         };
         let wants = |kc: bool| self.presets.iter().any(|p| (p.method == Method::Kc) == kc);
+        // key-components on the canonical surface when asked, carried back to `mesh`
+        let surface = match &self.surface {
+            Some(params) if wants(true) => Some(
+                canonical(Input::Mesh(&mesh), params)
+                    .map_err(|e| format!("canonical surface: {e}"))?
+                    .mesh,
+            ),
+            _ => None,
+        };
+        let carrier = surface.as_ref().map(|s| Carrier::new(&mesh, s));
+        let detected: &Mesh = surface.as_ref().unwrap_or(&mesh);
         let (embedded, mut cache, mut cache_error) = if wants(true) {
-            let (e, c, err) = self.stage1(&mesh, null)?;
+            let (e, c, err) = self.stage1(detected, null)?;
             (Some(e), c, err)
         } else {
             (None, CacheUse::Hit, None)
@@ -727,14 +748,20 @@ impl Config {
         } else {
             None
         };
-        let extractor = embedded.as_ref().map(|_| Extractor::new(&mesh));
+        let extractor = embedded.as_ref().map(|_| Extractor::new(detected));
         let vertex_area = mser.as_ref().map(|_| vertex_areas(&mesh));
         let mut components = Vec::with_capacity(self.presets.len());
         for p in &self.presets {
             let comps = match (p.method, &embedded, &extractor, &mser, &vertex_area) {
-                (Method::Kc, Some(e), Some(x), _, _) => x
-                    .components(e, &p.cluster, p.sigma, p.sphere)
-                    .map_err(|e| format!("{}: component extraction failed: {e}", p.name))?,
+                (Method::Kc, Some(e), Some(x), _, _) => {
+                    let found = x
+                        .components(e, &p.cluster, p.sigma, p.sphere)
+                        .map_err(|e| format!("{}: component extraction failed: {e}", p.name))?;
+                    match &carrier {
+                        Some(carrier) => found.iter().map(|c| carrier.carry(c)).collect(),
+                        None => found,
+                    }
+                }
                 (Method::Mser, _, _, Some(m), _) => m.components.clone(),
                 (Method::MserKc, _, _, Some(m), Some(va)) => {
                     let areas: Vec<f64> = m
@@ -947,6 +974,7 @@ pub fn run(
         smacof: config.smacof.clone(),
         geodesic: config.geodesic,
         mser: config.mser,
+        surface: config.surface,
         thresholds,
         nulls: nulls.to_vec(),
         presets,
@@ -1263,6 +1291,7 @@ mod tests {
             seed: 3,
             cache,
             parallel_shapes: true,
+            surface: None,
         }
     }
 
@@ -1384,6 +1413,57 @@ mod tests {
             Selection::Count(123)
         );
         assert_eq!(fraction_count(0.01, 10), 1);
+    }
+
+    #[test]
+    fn canonical_surfaces_carry_components_back_to_the_shapes_vertices() {
+        let dir = tempfile::tempdir().unwrap();
+        let mesh = synth::textured_protrusion_sphere(5);
+        write_off(&mesh, &dir.path().join("proto.off")).unwrap();
+        let nulls = discover(dir.path()).unwrap();
+        let cfg = Config {
+            surface: Some(SurfaceParams {
+                vertices: 3000,
+                ..SurfaceParams::default()
+            }),
+            ..config(vec![Kind::Scale], vec![1], None)
+        };
+        let (report, _) = run(&cfg, &nulls, &|_| {}).unwrap();
+        assert!(report.skipped.is_empty(), "{:?}", report.skipped);
+        assert_eq!(report.surface, cfg.surface);
+        // KC-1* and KC-2* find a component on the sphere's canonical surface and again on its
+        // scaled copy's (grid rounding makes the two surfaces differ by a few vertices)
+        for pr in &report.presets[..2] {
+            let scale = pr.mean_overlap.rows[0].values[0].unwrap();
+            assert!(scale > 0.8, "{}: {scale}", pr.preset.name);
+        }
+        let n = mesh.num_vertices() as VertexId;
+        for s in &report.shapes {
+            assert!(s.presets[0].components > 0, "{} has no component", s.kind);
+            assert_eq!(
+                s.vertices,
+                mesh.num_vertices(),
+                "counts are the shape's own"
+            );
+        }
+        // the carried components are sets of the null shape's vertices
+        let outcome = cfg
+            .run_job(
+                &Job {
+                    null: 0,
+                    source: Source::Null,
+                },
+                &[LoadedNull {
+                    spec: nulls[0].clone(),
+                    topo: Topology::new(&mesh),
+                    areas: vertex_areas(&mesh),
+                    referenced: referenced(&mesh),
+                    mesh: mesh.clone(),
+                }],
+            )
+            .unwrap();
+        let c = &outcome.components[0][0];
+        assert!(!c.is_empty() && c.windows(2).all(|w| w[0] < w[1]) && c[c.len() - 1] < n);
     }
 
     #[test]
