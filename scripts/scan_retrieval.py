@@ -17,6 +17,12 @@ the model's path comes first; its rank is printed (99: not in the top 10).
 
 Extra query options (e.g. `--verify 1`) go after `--query-args`. Nothing is written outside
 --out, which must not exist yet or be a folder this script made before.
+
+With --tables, the same scans (grids and points) are also measured by `keycomp bench retrieval
+--queries DIR --truth CSV` against each collection, with the D2 and FPFH baselines: OUT/tables
+holds the collection (links to the --collection folders and the model), its labels (each
+folder's classes.csv, the model's class 'scanned') and the ground truth, and each model's run
+writes OUT/bench-<model>/ (results.json, the printed tables in tables.txt).
 """
 
 import argparse
@@ -64,6 +70,8 @@ def main():
     ap.add_argument("--scans", required=True)
     ap.add_argument("--surface", default="canonical", choices=["as-read", "canonical"])
     ap.add_argument("--out", required=True)
+    ap.add_argument("--tables", action="store_true",
+                    help="also run bench retrieval --queries/--truth (baselines included)")
     ap.add_argument("--query-args", nargs=argparse.REMAINDER, default=[])
     a = ap.parse_args()
 
@@ -118,6 +126,44 @@ def main():
             print(f"{model.name} {kind}: first {first}/{len(ranks)}, top 10 {top}/{len(ranks)}, "
                   f"median query {statistics.median(times):.2f} s, ranks {ranks}", flush=True)
     (out / "results.json").write_text(json.dumps(results, indent=1) + "\n")
+    if a.tables:
+        tables(a, out, scans, clouds)
+
+
+def tables(a, out, scans, clouds):
+    """`keycomp bench retrieval` with the scans as external queries, one run per model."""
+    t = out / "tables"
+    queries = t / "queries"
+    queries.mkdir(parents=True)
+    for f in [*scans, *clouds]:
+        (queries / f.name).symlink_to(f.resolve())
+    labels = ["file,class"]
+    for c in a.collection:
+        c = pathlib.Path(c)
+        csv = c / "classes.csv"
+        if not csv.exists():
+            raise SystemExit(f"{csv}: --tables needs each collection folder's classes.csv")
+        for line in csv.read_text().splitlines()[1:]:
+            if line.strip():
+                labels.append(f"{c.name}/{line.strip()}")
+    for model in a.model:
+        model = pathlib.Path(model)
+        coll = t / f"collection-{model.stem}"
+        coll.mkdir()
+        for c in a.collection:
+            (coll / pathlib.Path(c).name).symlink_to(pathlib.Path(c).resolve())
+        (coll / model.name).symlink_to(model.resolve())
+        (t / f"labels-{model.stem}.csv").write_text(
+            "\n".join([*labels, f"{model.name},scanned"]) + "\n")
+        (t / f"truth-{model.stem}.csv").write_text(
+            "query,source\n" + "".join(f"{f.name},{model.name}\n" for f in [*scans, *clouds]))
+        report = run([a.bin, "bench", "retrieval", "--collection", str(coll),
+                      "--labels", str(t / f"labels-{model.stem}.csv"),
+                      "--queries", str(queries), "--truth", str(t / f"truth-{model.stem}.csv"),
+                      "--partial", "none", "--surface", a.surface,
+                      "--cache", str(t / "cache"), "--out", str(out / f"bench-{model.stem}")])
+        (out / f"bench-{model.stem}" / "tables.txt").write_text(report)
+        print(f"== {model.name}\n{report}", flush=True)
 
 
 if __name__ == "__main__":

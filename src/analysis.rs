@@ -586,7 +586,7 @@ pub fn records_of_new(
     profile: &Profile,
     known: impl Fn(&Path) -> Option<ContentHash>,
     done: impl Fn() + Sync,
-) -> Vec<Option<Result<ShapeRecord<DIM>, Error>>> {
+) -> Vec<Option<Result<Recorded, Error>>> {
     let known: Vec<Option<ContentHash>> = files.iter().map(|p| known(&canonical_path(p))).collect();
     files
         .par_iter()
@@ -595,12 +595,24 @@ pub fn records_of_new(
             let r = match ContentHash::of_file(p) {
                 Err(e) => Some(Err(e.into())),
                 Ok(hash) if old == Some(hash) => None,
-                Ok(hash) => Some(record_of(p, hash, profile)),
+                Ok(hash) => Some(analyse(p, profile).map(|a| Recorded {
+                    record: a.record(p, hash),
+                    warnings: a.warnings,
+                })),
             };
             done();
             r
         })
         .collect()
+}
+
+/// An index record and what the reader tolerated on the way ([`Analysed::warnings`]).
+#[derive(Debug, Clone)]
+pub struct Recorded {
+    /// The record.
+    pub record: ShapeRecord<DIM>,
+    /// The reader's warnings (unknown header lines, dropped points, ...).
+    pub warnings: Vec<String>,
 }
 
 /// Reads, detects and describes one file, whose content hash is `hash`, into an index record.

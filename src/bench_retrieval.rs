@@ -36,6 +36,12 @@
 //! same binary skips detection. Entries are written atomically (temporary file + rename); an
 //! unreadable entry is recomputed.
 //!
+//! **External queries** (`--queries DIR --truth CSV`): files from elsewhere (real range scans,
+//! point clouds, meshes at another resolution), each named in the CSV with its source shape in
+//! the collection, are ranked as `keycomp query` ranks them and by every baseline (which
+//! describe the file's triangles, or a point cloud's canonical surface), and measured as the
+//! query set `external` with the same tables as the cut fragments.
+//!
 //! The measures are documented in [`keycomp_bench::retrieval::metrics`].
 
 use std::collections::{BTreeMap, HashMap};
@@ -51,7 +57,9 @@ use keycomp_bench::retrieval::fpfh::{
     BagOfWords, FpfhParams, FpfhScale, OrientedPoints, cosine_distance, features_of,
     sample_oriented,
 };
-use keycomp_bench::retrieval::labels::{DEFAULT_CLASS_REGEX, classes_from_csv, classes_from_names};
+use keycomp_bench::retrieval::labels::{
+    DEFAULT_CLASS_REGEX, Truth, classes_from_csv, classes_from_names, truth_from_csv,
+};
 use keycomp_bench::retrieval::metrics::{QueryScores, Summary, score, summarize};
 use keycomp_bench::retrieval::{complete_ranking, pr_svg, rank_by_distance};
 use keycomp_bench::svg::Curve;
@@ -79,6 +87,7 @@ pub const EXAMPLES: &str = "Examples:
   keycomp bench retrieval --collection ../shared/data/faust --class-from-name 'tr_reg_\\d(\\d)\\d' --out bench-out/retrieval-faust-subject
   keycomp bench retrieval --collection my-shapes --labels classes.csv --partial ball,scan --queries 50 --seed 3
   keycomp bench retrieval --collection ../shared/data/tosca --detect \"--preset kc2\" --partial none
+  keycomp bench retrieval --collection shapes --labels classes.csv --queries scans/ --truth truth.csv --partial none
 
 Ranks the collection for every whole shape (left out of its own ranking) and for partial
 queries cut from it (ball: geodesic ball, plane: plane cut, scan: one simulated range-scan
@@ -90,7 +99,9 @@ each mesh's own area ('FPFH BoW', scale-free) and once with the collection's med
 ('FPFH BoW units', file units: fragments keep their source's scale). Prints NN, FT, ST, E,
 DCG and mAP (Princeton Shape Benchmark definitions) and, for partial queries, the mean rank of
 the source shape and how often it is first, among the first three, and ahead of every shape
-of another class ('source ahead': `--partial plane --area 0.5,0.5` measures halves). Writes
+of another class ('source ahead': `--partial plane --area 0.5,0.5` measures halves). With
+--queries DIR --truth CSV (lines query,source[,class]), the files of DIR named there are one
+more query set, 'external' (real scans, point clouds, other tessellations). Writes
 OUT/results.json, OUT/pr-<queries>.svg (precision-recall), OUT/fragments/*.off and OUT/index;
 detections are cached in OUT/cache.";
 
@@ -112,10 +123,19 @@ pub struct Args {
     /// separate with commas [default: ball,plane,scan].
     #[arg(long, value_name = "KIND", num_args = 1.., value_delimiter = ',')]
     pub partial: Vec<String>,
-    /// Partial queries per kind [default: one per collection shape]. Sources are drawn without
-    /// repetition until every shape has been used once.
-    #[arg(long, value_name = "N")]
-    pub queries: Option<usize>,
+    /// A number: partial queries per kind [default: one per collection shape], their sources
+    /// drawn without repetition until every shape has been used once. A folder: external
+    /// queries (real scans, point clouds, any file keycomp reads), each named with its source
+    /// shape in --truth, measured as one more query set ('external') beside the others (a
+    /// folder named like a number: write it ./50).
+    #[arg(long, value_name = "N|DIR", value_parser = parse_queries)]
+    pub queries: Option<Queries>,
+    /// With --queries DIR: the ground truth, a CSV file of `query,source[,class]` lines: the
+    /// query file (name, stem or path relative to DIR), its source in the collection (name,
+    /// stem or path relative to it), and optionally its class (default: the source's). One
+    /// query per line; files of DIR not named are not queried.
+    #[arg(long, value_name = "CSV")]
+    pub truth: Option<PathBuf>,
     /// Seed of everything random (fragment sources, centres, directions and fractions; the
     /// order of unranked shapes; D2 and FPFH sampling, the FPFH codebook).
     #[arg(long, default_value_t = 0, value_name = "S")]
@@ -232,6 +252,25 @@ fn detect_args(options: Option<&str>) -> Result<DetectArgs> {
         .map_err(|e| anyhow::anyhow!("--detect: {}", e.render().to_string().trim()))
 }
 
+/// What `--queries` gives: a count of partial queries per kind, or a folder of external ones.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Queries {
+    /// Partial queries per kind.
+    PerKind(usize),
+    /// A folder of query files, named in `--truth`.
+    Folder(PathBuf),
+}
+
+fn parse_queries(s: &str) -> Result<Queries, String> {
+    if !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit()) {
+        s.parse()
+            .map(Queries::PerKind)
+            .map_err(|_| format!("'{s}': too large a count"))
+    } else {
+        Ok(Queries::Folder(PathBuf::from(s)))
+    }
+}
+
 fn parse_range(s: &str) -> Result<(f64, f64), String> {
     let bad = || format!("'{s}': expected MIN,MAX with 0 < MIN <= MAX <= 1, e.g. 0.2,0.6");
     let (a, b) = s.split_once(',').ok_or_else(bad)?;
@@ -244,10 +283,11 @@ fn parse_range(s: &str) -> Result<(f64, f64), String> {
     }
 }
 
-/// Supported mesh files below `dir`, sorted by path.
-fn list_meshes(dir: &Path) -> Result<Vec<PathBuf>> {
+/// Files keycomp reads (meshes, scans, point clouds) below `dir`, sorted by path; `option`
+/// names the folder's option in errors.
+fn list_meshes(dir: &Path, option: &str) -> Result<Vec<PathBuf>> {
     if !dir.is_dir() {
-        bail!("{}: not a folder (--collection)", dir.display());
+        bail!("{}: not a folder ({option})", dir.display());
     }
     let mut out = Vec::new();
     let mut stack = vec![dir.to_path_buf()];
@@ -832,7 +872,7 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
     if args.d2_pairs == 0 {
         bail!("--d2-pairs must be at least 1");
     }
-    let files = list_meshes(&args.collection)?;
+    let files = list_meshes(&args.collection, "--collection")?;
     if files.len() < 2 {
         bail!(
             "{}: found {} mesh file(s) (.off, .obj, .ply, .stl, .gltf, .glb); retrieval needs at least 2",
@@ -844,6 +884,24 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
         (Some(csv), _) => classes_from_csv(&files, &args.collection, csv)?,
         (None, Some(re)) => classes_from_names(&files, re)?,
         (None, None) => classes_from_names(&files, DEFAULT_CLASS_REGEX)?,
+    };
+    let external = match (&args.queries, &args.truth) {
+        (Some(Queries::Folder(dir)), Some(csv)) => {
+            let queries = list_meshes(dir, "--queries")?;
+            Some(truth_from_csv(
+                &queries,
+                dir,
+                &files,
+                &args.collection,
+                csv,
+            )?)
+        }
+        (Some(Queries::Folder(dir)), None) => bail!(
+            "--queries {}: external queries need --truth CSV (lines query,source[,class])",
+            dir.display()
+        ),
+        (_, Some(_)) => bail!("--truth goes with --queries DIR (a folder of query files)"),
+        _ => None,
     };
     let names: Vec<String> = files.iter().map(|f| stem(f)).collect();
     let n = files.len();
@@ -1133,7 +1191,10 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
     sets.push(query_set("whole", whole, &methods));
 
     // 4. partial queries
-    let per_kind = args.queries.unwrap_or(n);
+    let per_kind = match &args.queries {
+        Some(Queries::PerKind(k)) => *k,
+        _ => n,
+    };
     let mut sources: Vec<usize> = (0..n).collect();
     sources.shuffle(&mut ChaCha8Rng::seed_from_u64(sub_seed(
         args.seed, "sources", 0,
@@ -1296,7 +1357,37 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
         sets.push(query_set(kind.name(), results, &methods));
     }
 
-    // 5. outputs
+    // 5. external queries, named with their sources in --truth
+    if let Some(truth) = &external {
+        let bar = progress(truth.len() as u64, "external queries");
+        let results: Vec<QueryResult> = truth
+            .par_iter()
+            .enumerate()
+            .map(|(q, t)| {
+                let r = external_query(
+                    t,
+                    q,
+                    &Setting {
+                        args: &args,
+                        cache: &cache,
+                        params: &params,
+                        reader: &reader,
+                        index_of: &index_of,
+                        match_params: &match_params,
+                        baselines: &baselines,
+                        classes: &classes,
+                        names: &names,
+                    },
+                );
+                bar.inc(1);
+                r
+            })
+            .collect::<Result<_>>()?;
+        bar.finish_and_clear();
+        sets.push(query_set("external", results, &methods));
+    }
+
+    // 6. outputs
     let mut class_counts: BTreeMap<String, usize> = BTreeMap::new();
     for c in &classes {
         *class_counts.entry(c.clone()).or_default() += 1;
@@ -1368,6 +1459,106 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
     )?;
     output::print_text(&text)?;
     Ok(ExitCode::SUCCESS)
+}
+
+/// What an external query is measured against: the run's options, index and baselines.
+struct Setting<'a> {
+    args: &'a Args,
+    cache: &'a RecordCache,
+    params: &'a Profile,
+    reader: &'a Reader,
+    index_of: &'a HashMap<PathBuf, usize>,
+    match_params: &'a MatchParams,
+    baselines: &'a [Baseline],
+    classes: &'a [String],
+    names: &'a [String],
+}
+
+/// One external query (the `q`-th line of --truth) ranked by key-components as `keycomp query`
+/// ranks the file (a point cloud on its canonical surface, whatever the index's profile) and
+/// by each baseline. The baselines need triangles: they describe the file's mesh (a range grid
+/// triangulated), or a point cloud's canonical surface.
+fn external_query(t: &Truth, q: usize, s: &Setting<'_>) -> Result<QueryResult> {
+    let n = s.names.len();
+    let input = keycomp_mesh::read_input(&t.query)?;
+    let points = matches!(input.geometry, keycomp_mesh::Geometry::Points(_));
+    let descriptors: Vec<Vec<f64>> = if s.baselines.is_empty() {
+        Vec::new()
+    } else {
+        let mesh = match input.geometry {
+            keycomp_mesh::Geometry::Mesh(m) => m,
+            g => {
+                keycomp::analysis::canonical_surface(&g, &s.params.surface.unwrap_or_default())
+                    .with_context(|| format!("{}: canonical surface", t.query.display()))?
+                    .mesh
+            }
+        };
+        s.baselines
+            .iter()
+            .map(|b| {
+                (b.describe)(&mesh).with_context(|| format!("{}: {}", t.query.display(), b.label))
+            })
+            .collect::<Result<_>>()?
+    };
+    // detection may fail on a query: it then has no key-components (random ranking), reported
+    let rec = ContentHash::of_file(&t.query)
+        .map_err(anyhow::Error::from)
+        .and_then(|hash| {
+            s.cache
+                .records(&t.query, hash, s.params, Role::Query)
+                .map(|(r, _)| r)
+        });
+    let (returned, components, error) = match &rec {
+        Ok(r) => (
+            kc_ranking(
+                s.reader,
+                r,
+                s.index_of,
+                s.match_params,
+                s.args.verify_weight,
+                s.params.surface.is_some() || points,
+            )?,
+            r.first().map_or(0, |r| r.components.len()),
+            None,
+        ),
+        Err(e) => (Vec::new(), 0, Some(output::error_chain(e))),
+    };
+    let src = t.source;
+    let class = t.class.as_ref().unwrap_or(&s.classes[src]);
+    let seed = s.args.seed;
+    let result = |order: &[usize], returned: usize| {
+        method_result(order, returned, class, s.classes, s.names, Some(src))
+    };
+    let by_baseline = s
+        .baselines
+        .iter()
+        .zip(&descriptors)
+        .map(|(b, d)| (b.key, result(&b.ranking(d, None), n)))
+        .collect();
+    Ok(QueryResult {
+        query: t.query.display().to_string(),
+        class: class.clone(),
+        source: Some(s.names[src].clone()),
+        target_fraction: None,
+        fraction: None,
+        cut: None,
+        components,
+        error,
+        key_components: result(
+            &complete_ranking(
+                &returned,
+                n,
+                None,
+                sub_seed(seed, "external-tail", q as u64),
+            ),
+            returned.len(),
+        ),
+        baselines: by_baseline,
+        random: result(
+            &complete_ranking(&[], n, None, sub_seed(seed, "external-random", q as u64)),
+            0,
+        ),
+    })
 }
 
 /// The summaries of one query set; `methods` are the baselines' (label, key) pairs.

@@ -143,6 +143,9 @@ pub trait Progress: Sync {
     fn file_done(&self) {}
     /// A file failed (with [`AddOptions::keep_going`]).
     fn failed(&self, _failure: &Failure) {}
+    /// A file was read with a warning (an unknown header line, dropped points, ...): `message`
+    /// names the file.
+    fn warned(&self, _message: &str) {}
 }
 
 impl Progress for () {}
@@ -239,7 +242,7 @@ pub fn add(
     let files = mesh_files(paths)?;
     if files.is_empty() {
         return Err(Error::Invalid(
-            "no mesh files (.off, .obj, .ply, .stl, .gltf, .glb) found in the paths given".into(),
+            "no mesh, scan or point-cloud files (.off, .obj, .ply, .stl, .gltf, .glb, .xyz, .pts, .pcd) found in the paths given".into(),
         ));
     }
     add_items(dir, &files, Vec::new(), options, progress)
@@ -312,7 +315,15 @@ pub fn add_items(
         for (p, r) in chunk.iter().zip(results) {
             match r {
                 None => summary.unchanged += 1,
-                Some(r) => outcome(p, r, &mut pending, &mut summary)?,
+                Some(r) => {
+                    let r = r.map(|r| {
+                        for w in &r.warnings {
+                            progress.warned(&format!("{}: {w}", p.display()));
+                        }
+                        r.record
+                    });
+                    outcome(p, r, &mut pending, &mut summary)?
+                }
             }
         }
         if options.keep_going {

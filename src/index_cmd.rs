@@ -180,6 +180,9 @@ impl collection::Progress for Bar {
     fn failed(&self, failure: &Failure) {
         self.0.suspend(|| eprintln!("skipped: {}", failure.message));
     }
+    fn warned(&self, message: &str) {
+        self.0.suspend(|| eprintln!("warning: {message}"));
+    }
 }
 
 fn add(args: AddArgs) -> Result<ExitCode> {

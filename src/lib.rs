@@ -46,6 +46,6 @@ pub mod options;
 pub mod search;
 
 pub use analysis::{
-    Analysed, Error, Profile, Role, analyse, analyse_as, analyse_mesh, analyse_mesh_as, error_line,
-    mesh_files, query_profile, record_of, record_of_mesh, records_as, records_of_new,
+    Analysed, Error, Profile, Recorded, Role, analyse, analyse_as, analyse_mesh, analyse_mesh_as,
+    error_line, mesh_files, query_profile, record_of, record_of_mesh, records_as, records_of_new,
 };

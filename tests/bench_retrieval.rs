@@ -79,8 +79,11 @@ fn check_consistency(r: &Value, class_of: &dyn Fn(&str) -> String) {
                 } else {
                     let rank = m["source_rank"].as_u64().unwrap() as usize;
                     assert!((1..=n).contains(&rank), "{q}");
-                    let fr = f(&q["fraction"]);
-                    assert!(fr > 0.0 && fr <= 1.0, "{q}");
+                    // a cut fragment's area fraction (external queries have none)
+                    if !q["fraction"].is_null() {
+                        let fr = f(&q["fraction"]);
+                        assert!(fr > 0.0 && fr <= 1.0, "{q}");
+                    }
                 }
                 if m["nn"].is_null() {
                     continue;
@@ -272,6 +275,93 @@ fn synthetic_collection_end_to_end() {
             assert!(f(&m["st"]) == 1.0, "{q}");
             assert!(f(&m["ap"]) >= worst_ap - 1e-12, "{q}");
         }
+    }
+}
+
+/// `--queries DIR --truth CSV`: files of any kind keycomp reads, measured as the set
+/// 'external' with the baselines; an exact copy of a collection shape finds it first; a bare
+/// point cloud is ranked too; truth that names nothing is refused with its file and line.
+#[test]
+fn external_queries_with_their_truth() {
+    let tmp = tempfile::tempdir().unwrap();
+    let coll = tmp.path().join("shapes");
+    std::fs::create_dir(&coll).unwrap();
+    synthetic_collection(&coll);
+    let queries = tmp.path().join("queries");
+    std::fs::create_dir(&queries).unwrap();
+    std::fs::copy(coll.join("torus1.off"), queries.join("copy.off")).unwrap();
+    let cloud: String = synth::protrusion_sphere(5, 0.6, 0.4)
+        .positions
+        .iter()
+        .map(|p| format!("{} {} {}\n", p.x, p.y, p.z))
+        .collect();
+    std::fs::write(queries.join("bumps.xyz"), cloud).unwrap();
+    let truth = tmp.path().join("truth.csv");
+    std::fs::write(
+        &truth,
+        "query,source\ncopy.off,torus1\nbumps,bumpy2.off,bumpy\n",
+    )
+    .unwrap();
+    let out = tmp.path().join("out");
+    let run = |truth: &Path, out: &Path| {
+        keycomp(&[
+            "bench",
+            "retrieval",
+            "--collection",
+            s(&coll),
+            "--queries",
+            s(&queries),
+            "--truth",
+            s(truth),
+            "--partial",
+            "none",
+            "--d2-pairs",
+            "4096",
+            "--detect",
+            "--preset kc1 --n 8",
+            "--out",
+            s(out),
+        ])
+    };
+    let o = run(&truth, &out);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("| external | 2 |"), "{}", stdout(&o));
+    let r = results(&out);
+    let sets: Vec<&str> = r["query_sets"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(sets, ["whole", "external"]);
+    check_consistency(&r, &prefix_class);
+    let ext = r["query_sets"][1]["results"].as_array().unwrap();
+    assert_eq!(ext[0]["source"], "torus1");
+    assert_eq!(ext[0]["class"], "torus");
+    assert_eq!(ext[0]["key_components"]["source_rank"], 1, "{}", ext[0]);
+    assert_eq!(ext[0]["d2"]["source_rank"], 1, "{}", ext[0]);
+    assert_eq!(ext[1]["source"], "bumpy2");
+    assert!(ext[1]["query"].as_str().unwrap().ends_with("bumps.xyz"));
+    assert!(
+        ext[1]["fpfh_bow"]["source_rank"].as_u64().is_some(),
+        "{}",
+        ext[1]
+    );
+    // truth naming a shape the collection does not have, and the options alone
+    std::fs::write(&truth, "copy.off,torus9\n").unwrap();
+    let o = run(&truth, &tmp.path().join("out2"));
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("truth.csv:1") && stderr(&o).contains("'torus9'"),
+        "{}",
+        stderr(&o)
+    );
+    for extra in [["--truth", s(&truth)], ["--queries", s(&queries)]] {
+        let mut a = vec!["bench", "retrieval", "--collection", s(&coll)];
+        a.extend_from_slice(&extra);
+        let o = keycomp(&a);
+        assert_eq!(o.status.code(), Some(2));
+        assert!(stderr(&o).contains("--truth"), "{}", stderr(&o));
     }
 }
 

@@ -612,6 +612,30 @@ fn scans_and_point_clouds_in_and_malformed_ones_out() {
         let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("json");
         assert!(v["vertices"].as_u64().expect("vertices") > 1000, "{v}");
     }
+    // a header line that is no PLY keyword (some distributed scans end theirs with `bye`):
+    // indexed, with a warning naming the file and the line
+    let quirky = dir.path().join("quirky.ply");
+    std::fs::write(
+        &quirky,
+        range_grid_ply(60).replacen("end_header\n", "bye\nend_header\n", 1),
+    )
+    .expect("w");
+    let index = dir.path().join("index");
+    let o = keycomp(&[
+        "index",
+        "add",
+        quirky.to_str().expect("utf8"),
+        cloud.to_str().expect("utf8"),
+        "--index",
+        index.to_str().expect("utf8"),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("warning: ")
+            && stderr(&o).contains("quirky.ply: line 12: unknown header line 'bye' ignored"),
+        "{}",
+        stderr(&o)
+    );
 
     let header = "ply\nformat ascii 1.0\nobj_info num_cols 2\nobj_info num_rows 2\n\
                   element vertex 3\nproperty float x\nproperty float y\nproperty float z\n\

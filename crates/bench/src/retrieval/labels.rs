@@ -51,6 +51,32 @@ pub enum LabelError {
         /// The line.
         text: String,
     },
+    /// A malformed line of a ground-truth file.
+    #[error("{}:{line}: expected 'query,source' or 'query,source,class', found '{text}'", path.display())]
+    BadTruthLine {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line number.
+        line: usize,
+        /// The line.
+        text: String,
+    },
+    /// A name in a ground-truth file that no file (or more than one) answers to.
+    #[error("{}:{line}: {what}", path.display())]
+    Unresolved {
+        /// The ground-truth file.
+        path: PathBuf,
+        /// 1-based line number.
+        line: usize,
+        /// What is wrong with the name.
+        what: String,
+    },
+    /// A ground-truth file without any query.
+    #[error("{}: no query (expected lines 'query,source[,class]')", path.display())]
+    NoTruth {
+        /// The file.
+        path: PathBuf,
+    },
     /// A collection file the labels file does not name.
     #[error(
         "{}: no class for '{name}' (name it by file name, stem or path relative to the collection)",
@@ -130,15 +156,7 @@ pub fn classes_from_csv(
     files
         .iter()
         .map(|f| {
-            let rel = f
-                .strip_prefix(root)
-                .map(|r| r.to_string_lossy().into_owned())
-                .unwrap_or_default();
-            let file_name = f
-                .file_name()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_default();
-            [rel, file_name, stem(f)]
+            names_of(f, root)
                 .iter()
                 .find_map(|k| map.get(k))
                 .cloned()
@@ -148,6 +166,118 @@ pub fn classes_from_csv(
                 })
         })
         .collect()
+}
+
+/// One external query and what it should find ([`truth_from_csv`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Truth {
+    /// The query file.
+    pub query: PathBuf,
+    /// Its source: an index into the collection's files.
+    pub source: usize,
+    /// Its class, when the file gives one (otherwise the source's).
+    pub class: Option<String>,
+}
+
+/// The names a file answers to: its path relative to `root`, its file name and its stem.
+fn names_of(f: &Path, root: &Path) -> [String; 3] {
+    let rel = f
+        .strip_prefix(root)
+        .map(|r| r.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let file_name = f
+        .file_name()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    [rel, file_name, stem(f)]
+}
+
+/// The files of `files` that `name` names (by path relative to `root`, file name or stem): the
+/// most specific kind of name that matches any file decides.
+fn resolve<'a>(name: &str, files: &'a [PathBuf], root: &Path) -> Vec<&'a PathBuf> {
+    let named: Vec<[String; 3]> = files.iter().map(|f| names_of(f, root)).collect();
+    (0..3)
+        .map(|k| {
+            files
+                .iter()
+                .zip(&named)
+                .filter(|(_, n)| !n[k].is_empty() && n[k] == name)
+                .map(|(f, _)| f)
+                .collect::<Vec<_>>()
+        })
+        .find(|m| !m.is_empty())
+        .unwrap_or_default()
+}
+
+/// External queries and their ground truth from a CSV file of `query,source[,class]` lines
+/// (blank lines and lines starting with `#` are skipped, as is a first line starting with
+/// `query,`). `query` names a file of `queries` by its path relative to `query_root`, file name
+/// or stem; `source` names a collection file of `files` the same way relative to `root`; the
+/// optional class overrides the source's. Each line is one query, in the file's order.
+///
+/// Errors: [`LabelError::Io`], [`LabelError::BadTruthLine`], [`LabelError::Unresolved`] (a name
+/// no file or several files answer to), [`LabelError::NoTruth`].
+pub fn truth_from_csv(
+    queries: &[PathBuf],
+    query_root: &Path,
+    files: &[PathBuf],
+    root: &Path,
+    csv: &Path,
+) -> Result<Vec<Truth>, LabelError> {
+    let text = keycomp_mesh::io::output::read_input_text(csv).map_err(|source| LabelError::Io {
+        path: csv.to_path_buf(),
+        source,
+    })?;
+    let mut out = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let t = line.trim();
+        if t.is_empty() || t.starts_with('#') || (i == 0 && t.starts_with("query,")) {
+            continue;
+        }
+        let fields: Vec<&str> = t.split(',').map(str::trim).collect();
+        if !(2..=3).contains(&fields.len()) || fields.iter().any(|f| f.is_empty()) {
+            return Err(LabelError::BadTruthLine {
+                path: csv.to_path_buf(),
+                line: i + 1,
+                text: t.to_string(),
+            });
+        }
+        let one = |name: &str, among: &[PathBuf], root: &Path, what: &str| {
+            let unresolved = |w: String| LabelError::Unresolved {
+                path: csv.to_path_buf(),
+                line: i + 1,
+                what: w,
+            };
+            match resolve(name, among, root).as_slice() {
+                [f] => Ok((*f).clone()),
+                [] => Err(unresolved(format!(
+                    "no {what} named '{name}' under {} (name it by file name, stem or path \
+                     relative to the folder)",
+                    root.display()
+                ))),
+                [a, b, ..] => Err(unresolved(format!(
+                    "'{name}' names more than one {what} ({} and {}): give the path relative \
+                     to {}",
+                    a.display(),
+                    b.display(),
+                    root.display()
+                ))),
+            }
+        };
+        let query = one(fields[0], queries, query_root, "query file")?;
+        let source = one(fields[1], files, root, "collection file")?;
+        out.push(Truth {
+            query,
+            source: files.iter().position(|f| *f == source).unwrap_or_default(),
+            class: fields.get(2).map(|c| c.to_string()),
+        });
+    }
+    if out.is_empty() {
+        return Err(LabelError::NoTruth {
+            path: csv.to_path_buf(),
+        });
+    }
+    Ok(out)
 }
 
 #[cfg(test)]
@@ -209,5 +339,63 @@ mod tests {
         assert!(e.to_string().contains(":1:"), "{e}");
         let e = classes_from_csv(&f, root, &dir.path().join("none.csv")).unwrap_err();
         assert!(e.to_string().contains("none.csv"), "{e}");
+    }
+
+    #[test]
+    fn truth_names_queries_and_sources_or_says_why_not() {
+        let dir = tempfile::tempdir().unwrap();
+        let csv = dir.path().join("truth.csv");
+        let root = Path::new("/c");
+        let files = vec![
+            root.join("bunny.ply"),
+            root.join("sub/cat.off"),
+            root.join("dog.off"),
+        ];
+        let qroot = Path::new("/q");
+        let queries = vec![
+            qroot.join("scan1.ply"),
+            qroot.join("scan1.xyz"),
+            qroot.join("b/cat-half.off"),
+        ];
+        let truth = |text: &str| {
+            std::fs::write(&csv, text).unwrap();
+            truth_from_csv(&queries, qroot, &files, root, &csv)
+        };
+        let t = truth("query,source,class\n# c\nscan1.ply,bunny\nscan1.xyz, bunny.ply ,rabbit\ncat-half,sub/cat.off\n")
+            .unwrap();
+        assert_eq!(
+            t,
+            vec![
+                Truth {
+                    query: queries[0].clone(),
+                    source: 0,
+                    class: None
+                },
+                Truth {
+                    query: queries[1].clone(),
+                    source: 0,
+                    class: Some("rabbit".into())
+                },
+                Truth {
+                    query: queries[2].clone(),
+                    source: 1,
+                    class: None
+                },
+            ]
+        );
+        // a stem two query files share is ambiguous; unknown names and bad lines are refused
+        for (text, needle) in [
+            ("scan1,bunny\n", "more than one query file"),
+            ("scan2.ply,bunny\n", "no query file named 'scan2.ply'"),
+            ("scan1.ply,horse\n", "no collection file named 'horse'"),
+            ("scan1.ply\n", ":1: expected 'query,source'"),
+            ("scan1.ply,bunny,a,b\n", ":1: expected"),
+            ("scan1.ply,,x\n", ":1: expected"),
+            ("# nothing\n", "no query"),
+        ] {
+            let e = truth(text).unwrap_err().to_string();
+            assert!(e.contains(needle), "{text:?}: {e}");
+            assert!(e.contains("truth.csv"), "{e}");
+        }
     }
 }
