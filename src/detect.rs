@@ -268,14 +268,17 @@ pub fn run(args: Args) -> Result<ExitCode> {
     for w in &loaded.warnings {
         eprintln!("warning: {}: {w}", args.mesh.display());
     }
-    let mesh = match loaded.geometry {
-        Geometry::Mesh(m) if args.surface.as_deref() != Some("canonical") => m,
+    // the file's geometry is kept when detection runs on its canonical surface (for --ply)
+    let (mesh, input) = match loaded.geometry {
+        Geometry::Mesh(m) if args.surface.as_deref() != Some("canonical") => (m, None),
         geometry => {
             // as in the analysis: no keypoints from fits that reach a scan's border
             params.harris.skip_boundary = true;
-            keycomp::analysis::canonical_surface(&geometry, &SurfaceParams::default())
-                .with_context(|| format!("{}: no canonical surface", args.mesh.display()))?
-                .mesh
+            let surface =
+                keycomp::analysis::canonical_surface(&geometry, &SurfaceParams::default())
+                    .with_context(|| format!("{}: no canonical surface", args.mesh.display()))?
+                    .mesh;
+            (surface, Some(geometry))
         }
     };
     let read_ms = t0.elapsed().as_secs_f64() * 1e3;
@@ -300,7 +303,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
     let total_ms = t0.elapsed().as_secs_f64() * 1e3;
 
     if let Some(out) = &args.ply {
-        keycomp_mesh::write_ply_colored(mesh, &component_colors(mesh, &det), out)?;
+        output::write_colours_on_input(input.as_ref(), mesh, &component_colors(mesh, &det), out)?;
     }
     let t = det.timings;
     if args.json {

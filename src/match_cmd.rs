@@ -105,31 +105,36 @@ pub fn run(args: Args) -> Result<ExitCode> {
         }
     }
     let match_ms = m.timings_ms.matching;
-    if let Some(out) = &args.ply_a {
-        let pairs: Vec<(usize, usize)> = m
-            .matches
-            .iter()
-            .enumerate()
-            .map(|(k, x)| (k, x.a_component))
-            .collect();
-        keycomp_mesh::write_ply_colored(
-            &a.mesh,
-            &pair_colors(&a.mesh, &a.detection, &a.description, &pairs),
-            out,
-        )?;
-    }
-    if let Some(out) = &args.ply_b {
-        let pairs: Vec<(usize, usize)> = m
-            .matches
-            .iter()
-            .enumerate()
-            .map(|(k, x)| (k, x.b_component))
-            .collect();
-        keycomp_mesh::write_ply_colored(
-            &b.mesh,
-            &pair_colors(&b.mesh, &b.detection, &b.description, &pairs),
-            out,
-        )?;
+    let sides = [
+        (
+            &args.ply_a,
+            &args.a,
+            &a,
+            m.matches.iter().map(|x| x.a_component).collect::<Vec<_>>(),
+        ),
+        (
+            &args.ply_b,
+            &args.b,
+            &b,
+            m.matches.iter().map(|x| x.b_component).collect::<Vec<_>>(),
+        ),
+    ];
+    for (out, path, analysed, components) in sides {
+        let Some(out) = out else { continue };
+        let pairs: Vec<(usize, usize)> = components.into_iter().enumerate().collect();
+        let colours = pair_colors(
+            &analysed.mesh,
+            &analysed.detection,
+            &analysed.description,
+            &pairs,
+        );
+        // a canonical surface's colours go onto the file's own vertices
+        let input = if analysed.canonical {
+            Some(keycomp_mesh::read_input(path)?.geometry)
+        } else {
+            None
+        };
+        output::write_colours_on_input(input.as_ref(), &analysed.mesh, &colours, out)?;
     }
     if args.json {
         output::print_json(&m)?;

@@ -80,6 +80,43 @@ pub fn error_chain(e: &anyhow::Error) -> String {
     keycomp::error_line(e.as_ref())
 }
 
+/// Writes per-vertex `colours` of `analysed` (the mesh detection ran on) as a coloured PLY of
+/// what the file held. When `analysed` is the canonical surface of `input`, each of the input's
+/// vertices (or points, written without faces) takes the colour of its nearest canonical
+/// vertex, so the picture is of the file's own vertices; without `input`, `analysed` itself.
+pub fn write_colours_on_input(
+    input: Option<&keycomp_mesh::Geometry>,
+    analysed: &keycomp_mesh::Mesh,
+    colours: &[[u8; 3]],
+    out: &Path,
+) -> Result<()> {
+    use keycomp_mesh::{Geometry, Mesh};
+    let Some(input) = input else {
+        keycomp_mesh::write_ply_colored(analysed, colours, out)?;
+        return Ok(());
+    };
+    let on_input = match input {
+        Geometry::Mesh(m) => m.clone(),
+        Geometry::Points(c) => Mesh {
+            positions: c.positions.clone(),
+            faces: Vec::new(),
+        },
+    };
+    let nearest = keycomp_surface::trim::nearest_vertices(&on_input.positions, &analysed.positions)
+        .unwrap_or_else(|| vec![u32::MAX; on_input.positions.len()]);
+    let mapped: Vec<[u8; 3]> = nearest
+        .iter()
+        .map(|&v| {
+            colours
+                .get(v as usize)
+                .copied()
+                .unwrap_or(crate::colors::GREY)
+        })
+        .collect();
+    keycomp_mesh::write_ply_colored(&on_input, &mapped, out)?;
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

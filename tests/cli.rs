@@ -606,11 +606,28 @@ fn scans_and_point_clouds_in_and_malformed_ones_out() {
         .map(|l| format!("{l}\n"))
         .collect::<String>();
     std::fs::write(&cloud, text).expect("w");
-    for p in [&grid, &cloud] {
-        let o = keycomp(&["detect", p.to_str().expect("utf8"), "--json"]);
+    let canonical: &[&str] = &["--surface", "canonical"];
+    for (p, extra) in [(&grid, &[][..]), (&grid, canonical), (&cloud, &[][..])] {
+        let ply = dir.path().join("parts.ply");
+        let mut a = vec![
+            "detect",
+            p.to_str().expect("utf8"),
+            "--json",
+            "--ply",
+            ply.to_str().expect("utf8"),
+        ];
+        a.extend_from_slice(extra);
+        let o = keycomp(&a);
         assert!(o.status.success(), "{}: {}", p.display(), stderr(&o));
         let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("json");
         assert!(v["vertices"].as_u64().expect("vertices") > 1000, "{v}");
+        // the parts are drawn on the file's own 3,600 points (the canonical surface has others)
+        let drawn = keycomp_mesh::read_input(&ply).expect("the PLY written reads");
+        let n = match drawn.geometry {
+            keycomp_mesh::Geometry::Mesh(m) => m.num_vertices(),
+            keycomp_mesh::Geometry::Points(c) => c.positions.len(),
+        };
+        assert_eq!(n, 3600, "{}", p.display());
     }
     // a header line that is no PLY keyword (some distributed scans end theirs with `bye`):
     // indexed, with a warning naming the file and the line

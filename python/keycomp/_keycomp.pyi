@@ -7,7 +7,7 @@ with keycomp's messages.
 """
 
 import os
-from typing import Any, Optional, Sequence, Tuple, Union
+from typing import Any, Literal, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -76,9 +76,14 @@ class MatchResult:
     verified: Optional[float]
 
 def match(
-    a: MeshLike, b: MeshLike, pose: float = 0.0, verify: Optional[float] = None
+    a: MeshLike,
+    b: MeshLike,
+    pose: float = 0.0,
+    verify: Optional[float] = None,
+    surface: Optional[Literal["as-read", "canonical"]] = None,
 ) -> MatchResult:
-    """Part-to-part matching of two meshes, as `keycomp match A B [--pose W] [--verify W]`."""
+    """Part-to-part matching of two meshes, scans or point clouds, as
+    `keycomp match A B [--pose W] [--verify W] [--surface as-read|canonical]`."""
 
 class Index:
     def __init__(self, path: Union[str, os.PathLike]) -> None: ...
@@ -87,10 +92,16 @@ class Index:
     def add(
         self,
         items: Sequence[Union[str, os.PathLike, Tuple[Union[str, os.PathLike], npt.ArrayLike, npt.ArrayLike]]],
+        surface: Optional[Literal["as-read", "canonical"]] = None,
     ) -> int:
-        """Adds mesh files (folders searched recursively) or (name, vertices, faces) meshes;
-        returns shapes added or replaced."""
-    def add_files(self, paths: Sequence[Union[str, os.PathLike]]) -> dict[str, Any]:
+        """Adds mesh, scan or point-cloud files (folders searched recursively) or
+        (name, vertices, faces) meshes; returns shapes added or replaced. `surface` as
+        `keycomp index add --surface` (recorded by a new index; another than the index's raises)."""
+    def add_files(
+        self,
+        paths: Sequence[Union[str, os.PathLike]],
+        surface: Optional[Literal["as-read", "canonical"]] = None,
+    ) -> dict[str, Any]:
         """As `keycomp index add`: failures listed, the others stored (commits of 32 shapes).
         Returns {"added", "replaced", "unchanged", "failed": [{"path", "message"}], "shapes"}."""
     def merge(self, sources: Sequence[Union[str, os.PathLike]]) -> int:

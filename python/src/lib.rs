@@ -392,22 +392,40 @@ fn analyse_input(input: MeshInput, profile: &Profile, role: Role) -> PyResult<An
     }
 }
 
+/// The surface a caller asks for: `"as-read"` (`Some(false)`), `"canonical"` (`Some(true)`), or
+/// nothing (`None`).
+fn surface_choice(surface: Option<&str>) -> PyResult<Option<bool>> {
+    match surface {
+        None => Ok(None),
+        Some("as-read") => Ok(Some(false)),
+        Some("canonical") => Ok(Some(true)),
+        Some(other) => Err(PyValueError::new_err(format!(
+            "surface must be 'as-read' or 'canonical', got '{other}'"
+        ))),
+    }
+}
+
 /// Matches two meshes part to part, as `keycomp match A B`; `pose` weighs the pose check as
 /// `keycomp match --pose` does (0–1, default 0), `verify` geometric verification as
-/// `keycomp match --verify` does (0–1, or None, the default: automatic).
-#[pyfunction(name = "match", signature = (a, b, pose=0.0, verify=None))]
+/// `keycomp match --verify` does (0–1, or None, the default: automatic), `surface` is
+/// `keycomp match --surface`: "as-read" (the default) or "canonical" (both sides remade as
+/// their canonical surface; point clouds always are).
+#[pyfunction(name = "match", signature = (a, b, pose=0.0, verify=None, surface=None))]
 fn match_meshes(
     py: Python<'_>,
     a: &Bound<'_, PyAny>,
     b: &Bound<'_, PyAny>,
     pose: f64,
     verify: Option<f64>,
+    surface: Option<&str>,
 ) -> PyResult<MatchResult> {
     let pose = check_pose_weight(pose).map_err(analysis_err)?;
     let verify = check_verify_weight(verify).map_err(analysis_err)?;
+    let canonical = surface_choice(surface)?.unwrap_or(false);
     let (a, b) = (mesh_input(a, None)?, mesh_input(b, None)?);
     py.detach(|| {
-        let profile = Profile::current(&DetectOptions::default().retrieval_params());
+        let profile = Profile::current(&DetectOptions::default().retrieval_params())
+            .with_surface(canonical.then(Default::default));
         let (a, b) = rayon::join(
             || analyse_input(a, &profile, Role::Query),
             || analyse_input(b, &profile, Role::Indexed),
@@ -458,11 +476,24 @@ impl Index {
         self.path.display().to_string()
     }
 
-    /// Adds meshes: paths of files (folders are searched recursively) or `(name, vertices,
-    /// faces)` tuples of meshes in memory, stored under `name`. Files and meshes already
-    /// indexed with the same content are skipped. Returns the number of shapes added or
-    /// replaced. A mesh that cannot be analysed raises, and nothing of the call is stored.
-    fn add(&self, py: Python<'_>, items: Vec<Bound<'_, PyAny>>) -> PyResult<usize> {
+    /// Adds meshes: paths of files (meshes, range scans, point clouds; folders are searched
+    /// recursively) or `(name, vertices, faces)` tuples of meshes in memory, stored under
+    /// `name`. Files and meshes already indexed with the same content are skipped. Returns the
+    /// number of shapes added or replaced. A mesh that cannot be analysed raises, and nothing
+    /// of the call is stored. `surface` is `keycomp index add --surface`: "as-read" or
+    /// "canonical", recorded by a new index (default "as-read"); another than the index's
+    /// raises.
+    #[pyo3(signature = (items, surface=None))]
+    fn add(
+        &self,
+        py: Python<'_>,
+        items: Vec<Bound<'_, PyAny>>,
+        surface: Option<&str>,
+    ) -> PyResult<usize> {
+        let options = AddOptions {
+            canonical: surface_choice(surface)?,
+            ..AddOptions::default()
+        };
         let mut paths = Vec::new();
         let mut meshes = Vec::new();
         for item in &items {
@@ -480,7 +511,7 @@ impl Index {
         }
         py.detach(|| {
             let files = keycomp_core::mesh_files(&paths).map_err(analysis_err)?;
-            let s = collection::add_items(&self.path, &files, meshes, &AddOptions::default(), &())
+            let s = collection::add_items(&self.path, &files, meshes, &options, &())
                 .map_err(analysis_err)?;
             Ok(s.added + s.replaced)
         })
@@ -488,11 +519,20 @@ impl Index {
 
     /// Adds mesh files and every mesh below folders as `keycomp index add` does: a file that
     /// cannot be analysed is listed and the others stored, in commits of 32 shapes. Returns
-    /// `{"added", "replaced", "unchanged", "failed": [{"path", "message"}], "shapes"}`.
-    fn add_files<'py>(&self, py: Python<'py>, paths: Vec<PathBuf>) -> PyResult<Bound<'py, PyAny>> {
+    /// `{"added", "replaced", "unchanged", "failed": [{"path", "message"}], "shapes"}`;
+    /// `surface` as for `add`.
+    #[pyo3(signature = (paths, surface=None))]
+    fn add_files<'py>(
+        &self,
+        py: Python<'py>,
+        paths: Vec<PathBuf>,
+        surface: Option<&str>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let canonical = surface_choice(surface)?;
         let summary = py.detach(|| {
             let options = AddOptions {
                 keep_going: true,
+                canonical,
                 ..AddOptions::default()
             };
             collection::add(&self.path, &paths, &options, &()).map_err(analysis_err)

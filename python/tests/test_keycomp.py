@@ -132,6 +132,46 @@ def test_index_add_query_remove(shape, tmp_path):
     assert len(index) == 1
 
 
+def range_grid_ply(path, n=60):
+    """A range scan as scanners write it: an ascii PLY with a rows x cols range grid, no faces."""
+    pts = []
+    for r in range(n):
+        for c in range(n):
+            x, y = c / n - 0.5, r / n - 0.5
+            z = 0.3 * np.exp(-(x * x + y * y) * 8.0) + 0.05 * np.sin(9 * x) * np.cos(7 * y)
+            pts.append((x, y, z))
+    with open(path, "w") as f:
+        f.write("ply\nformat ascii 1.0\nobj_info num_cols %d\nobj_info num_rows %d\n" % (n, n))
+        f.write("element vertex %d\nproperty float x\nproperty float y\nproperty float z\n" % len(pts))
+        f.write("element range_grid %d\nproperty list uchar int vertex_indices\nend_header\n" % len(pts))
+        for p in pts:
+            f.write("%r %r %r\n" % p)
+        for i in range(len(pts)):
+            f.write("1 %d\n" % i)
+    return np.array(pts)
+
+
+def test_scans_and_point_clouds_on_canonical_surfaces(shape, tmp_path):
+    path, v, f = shape
+    scan = tmp_path / "scan.ply"
+    pts = range_grid_ply(scan)
+    cloud = tmp_path / "bumps.xyz"
+    np.savetxt(cloud, v)
+    index = keycomp.Index(tmp_path / "index")
+    assert index.add([path, scan], surface="canonical") == 2
+    # a bare point cloud of the shape's vertices finds the shape
+    assert index.query(cloud, k=2)[0].path == str(path)
+    # the index's choice is kept: another one raises with keycomp's message
+    with pytest.raises(ValueError, match="canonical surfaces"):
+        index.add([cloud], surface="as-read")
+    with pytest.raises(ValueError, match="'as-read' or 'canonical'"):
+        keycomp.match(path, path, surface="remeshed")
+    # the scan matched with the same points as a cloud: its own parts
+    xyz = tmp_path / "scan.xyz"
+    np.savetxt(xyz, pts)
+    assert keycomp.match(scan, xyz, surface="canonical").score > 0.5
+
+
 def test_match_is_high_for_a_shape_and_itself(shape):
     path, v, f = shape
     m = keycomp.match(path, (v, f))

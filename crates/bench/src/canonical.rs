@@ -15,9 +15,6 @@
 //! the size of its cells.
 
 use keycomp_mesh::{Mesh, VertexId};
-use kiddo::SquaredEuclidean;
-use kiddo::immutable::float::kdtree::ImmutableKdTree;
-use rayon::prelude::*;
 
 /// The shape's vertices grouped by their nearest canonical vertex, in CSR form.
 #[derive(Debug, Clone)]
@@ -32,33 +29,20 @@ impl Carrier {
     pub fn new(mesh: &Mesh, canonical: &Mesh) -> Self {
         let n_c = canonical.num_vertices();
         let mut counts = vec![0u32; n_c + 1];
-        let labels: Vec<Option<u32>> = if n_c == 0 {
-            vec![None; mesh.num_vertices()]
-        } else {
-            let coords: Vec<[f64; 3]> = canonical
-                .positions
-                .iter()
-                .map(|p| [p.x, p.y, p.z])
-                .collect();
-            let tree: ImmutableKdTree<f64, u32, 3, 32> = ImmutableKdTree::new_from_slice(&coords);
-            mesh.positions
-                .par_iter()
-                .map(|p| Some(tree.nearest_one::<SquaredEuclidean>(&[p.x, p.y, p.z]).item))
-                .collect()
-        };
-        for &c in labels.iter().flatten() {
+        // no canonical vertex: no labels, every cell empty
+        let labels = keycomp_surface::trim::nearest_vertices(&mesh.positions, &canonical.positions)
+            .unwrap_or_default();
+        for &c in &labels {
             counts[c as usize + 1] += 1;
         }
         for i in 0..n_c {
             counts[i + 1] += counts[i];
         }
         let mut next = counts.clone();
-        let mut cells = vec![0; labels.iter().flatten().count()];
-        for (v, c) in labels.iter().enumerate() {
-            if let Some(c) = c {
-                cells[next[*c as usize] as usize] = v as VertexId;
-                next[*c as usize] += 1;
-            }
+        let mut cells = vec![0; labels.len()];
+        for (v, &c) in labels.iter().enumerate() {
+            cells[next[c as usize] as usize] = v as VertexId;
+            next[c as usize] += 1;
         }
         Carrier {
             offsets: counts,

@@ -129,6 +129,10 @@ pub struct MatchParams {
     /// most rows, scale-free scans most (TOSCA NN 0.667 to 0.778); 0.02–0.06 were measured
     /// (BENCHMARKS.md, *Geometric verification*).
     pub verify_tolerance: f64,
+    /// Tentative pairs, the nearest by descriptor first, whose triples give verification's
+    /// alignments ([`verify::SEED_PAIRS`] by default; [`verify::SEED_PAIRS_RESAMPLED`] where
+    /// query and shape are resampled, [`verify_seeds_for`]).
+    pub verify_seeds: usize,
 }
 
 impl Default for MatchParams {
@@ -143,7 +147,19 @@ impl Default for MatchParams {
             pose_tolerance: 1.25,
             verify_weight: 0.0,
             verify_tolerance: 0.03,
+            verify_seeds: verify::SEED_PAIRS,
         }
+    }
+}
+
+/// Verification's seed pairs ([`MatchParams::verify_seeds`]): [`verify::SEED_PAIRS_RESAMPLED`]
+/// when the query and the shapes are analysed on canonical surfaces (`resampled`), else
+/// [`verify::SEED_PAIRS`].
+pub fn verify_seeds_for(resampled: bool) -> usize {
+    if resampled {
+        verify::SEED_PAIRS_RESAMPLED
+    } else {
+        verify::SEED_PAIRS
     }
 }
 
@@ -651,6 +667,7 @@ pub(crate) fn finish(
             &verify::tentative_pairs(d, mq, mt, max_d * verify::PAIR_REACH),
             params.file_units.then_some(1.0),
             params.verify_tolerance,
+            params.verify_seeds,
         )
     } else {
         None

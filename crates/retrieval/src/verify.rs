@@ -47,10 +47,17 @@ pub const PAIRS_PER_PART: usize = 6;
 pub const PAIR_REACH: f32 = 1.5;
 /// Most tentative pairs, the nearest in descriptor space first, checked against a transform.
 pub const MAX_PAIRS: usize = 300;
-/// The nearest pairs whose triples give the transforms tried.
+/// The nearest pairs whose triples give the transforms tried (the default of
+/// [`crate::MatchParams::verify_seeds`]): enough where a fragment keeps its source's
+/// tessellation, so that its parts are near copies of its source's.
 pub const SEED_PAIRS: usize = 60;
-/// Most transforms tried.
-pub const HYPOTHESES: usize = 3000;
+/// Seed pairs on canonical surfaces ([`crate::verify_seeds_for`]): a resampled scan's parts
+/// are cropped and re-tessellated, so its true pairs lie further down the list by descriptor
+/// distance; with [`SEED_PAIRS`] the bunny's raw scans missed their model's alignment where
+/// 120 find it (BENCHMARKS.md, *Real range scans*).
+pub const SEED_PAIRS_RESAMPLED: usize = 120;
+/// Most transforms tried (the triples of [`SEED_PAIRS`] seeds whose distances agree).
+pub const HYPOTHESES: usize = 20_000;
 /// Largest factor by which the straight-line distances between two pairs' centres may
 /// disagree (after the scale) for the pairs to be taken together.
 pub const RATIO_TOLERANCE: f64 = 1.2;
@@ -238,7 +245,8 @@ pub(crate) fn tentative_pairs(
 
 /// The fitness of `query` on `target` (see the module documentation) given tentative pairs of
 /// parts `(query part, target part, descriptor distance)`, in [0, 1]; `fixed_scale` is 1 in
-/// file units, `None` when the scale is unknown; `tolerance` in the target's length unit.
+/// file units, `None` when the scale is unknown; `tolerance` in the target's length unit;
+/// triples of the `seeds` nearest pairs give the alignments tried.
 /// `None` when either shape has no centres or no sample, or fewer than three pairs have
 /// centres (nothing to align with).
 pub(crate) fn fitness(
@@ -247,6 +255,7 @@ pub(crate) fn fitness(
     tentative: &[(usize, usize, f32)],
     fixed_scale: Option<f64>,
     tolerance: f64,
+    seeds: usize,
 ) -> Option<Verified> {
     if query.sample.is_empty() || target.sample.is_empty() {
         return None;
@@ -270,7 +279,7 @@ pub(crate) fn fitness(
         |t: &Similarity, i: usize| (t.apply(&src[i]) - dst[i]).norm_squared() <= centre_tol2;
     let scale_ok = |s: f64| fixed_scale.is_some() || (SCALE_RANGE.0..=SCALE_RANGE.1).contains(&s);
     // 1. hypotheses: triples of the best pairs whose straight-line distances agree
-    let m = n.min(SEED_PAIRS);
+    let m = n.min(seeds.max(3));
     // two matched centres may each be off by the inlier tolerance; closer than one such
     // tolerance, two centres give no direction to align by
     let slack = 2.0 * CENTRE_TOLERANCE * tol;
@@ -558,15 +567,19 @@ mod tests {
             .collect();
         let matches: Vec<(usize, usize, f32)> = (0..qc.len()).map(|i| (i, i, 0.0)).collect();
         let (qc, tc, part) = (leak(qc), leak(tc), leak(part));
-        let f = fitness(
-            view(qc, part),
-            view(tc, leak(whole.clone())),
-            &matches,
-            None,
-            0.02,
-        )
-        .expect("verified")
-        .fitness;
+        let fit_on = |target: Vec<[f32; 3]>| {
+            fitness(
+                view(qc, part),
+                view(tc, leak(target)),
+                &matches,
+                None,
+                0.02,
+                SEED_PAIRS,
+            )
+            .expect("verified")
+            .fitness
+        };
+        let f = fit_on(whole.clone());
         assert!(f > 0.99, "fitness on the source {f}");
         // the same shape with the points of y > 0.3 moved by 0.5: those do not fit any more
         let bent: Vec<[f32; 3]> = whole
@@ -579,13 +592,31 @@ mod tests {
                 }
             })
             .collect();
-        let g = fitness(view(qc, part), view(tc, leak(bent)), &matches, None, 0.02)
-            .expect("verified")
-            .fitness;
+        let g = fit_on(bent);
         assert!(g < 0.9 * f, "fitness on the bent copy {g}, source {f}");
         // fewer than three matches or no sample: nothing to verify
-        assert!(fitness(view(qc, part), view(tc, &[]), &matches, None, 0.02).is_none());
-        assert!(fitness(view(qc, part), view(tc, part), &matches[..2], None, 0.02).is_none());
+        assert!(
+            fitness(
+                view(qc, part),
+                view(tc, &[]),
+                &matches,
+                None,
+                0.02,
+                SEED_PAIRS
+            )
+            .is_none()
+        );
+        assert!(
+            fitness(
+                view(qc, part),
+                view(tc, part),
+                &matches[..2],
+                None,
+                0.02,
+                SEED_PAIRS
+            )
+            .is_none()
+        );
     }
 
     /// More matched centres agree with a wrong transform (a half-turn) than with the true one;
@@ -625,6 +656,7 @@ mod tests {
             &matches,
             Some(1.0),
             0.02,
+            SEED_PAIRS,
         )
         .expect("verified");
         assert!(v.fitness > 0.99, "fitness {}", v.fitness);

@@ -31,6 +31,22 @@ pub(crate) fn kd_tree(points: &[Point3<f64>]) -> Tree {
     ImmutableKdTree::new_from_slice(&coords)
 }
 
+/// For each of `points`, the index of the nearest of `to` (in parallel; `None` when `to` is
+/// empty). Carries what is computed on a canonical surface (per vertex) back to the input's
+/// vertices or points, which the surface lies on.
+pub fn nearest_vertices(points: &[Point3<f64>], to: &[Point3<f64>]) -> Option<Vec<u32>> {
+    if to.is_empty() {
+        return None;
+    }
+    let tree = kd_tree(to);
+    Some(
+        points
+            .par_iter()
+            .map(|p| tree.nearest_one::<SquaredEuclidean>(&[p.x, p.y, p.z]).item)
+            .collect(),
+    )
+}
+
 /// The indices of the `k` points of `tree` nearest `x`, nearest first (fewer when the tree
 /// has fewer points).
 pub(crate) fn nearest_ids(tree: &Tree, x: &Point3<f64>, k: usize) -> Vec<u32> {
