@@ -145,7 +145,7 @@ def range_grid_ply(path, n=60):
         f.write("element vertex %d\nproperty float x\nproperty float y\nproperty float z\n" % len(pts))
         f.write("element range_grid %d\nproperty list uchar int vertex_indices\nend_header\n" % len(pts))
         for p in pts:
-            f.write("%r %r %r\n" % p)
+            f.write("%.9g %.9g %.9g\n" % p)
         for i in range(len(pts)):
             f.write("1 %d\n" % i)
     return np.array(pts)

@@ -3,13 +3,15 @@
 //!
 //! 1. **Alignment hypotheses from the parts.** Tentative pairs join each query part to its
 //!    [`PAIRS_PER_PART`] nearest target parts by descriptor (a scan's parts are cropped, so its
-//!    true partner is often not the nearest one). Triples of the [`SEED_PAIRS`] nearest pairs
-//!    whose straight-line distances agree (RANSAC: M. A. Fischler, R. C. Bolles, "Random sample
-//!    consensus", Communications of the ACM 24(6), 1981) each give the least-squares similarity
-//!    transform (rotation, translation and, unless both shapes are in file units, a uniform
-//!    scale; S. Umeyama, "Least-squares estimation of transformation parameters between two
-//!    point patterns", IEEE TPAMI 13(4), 1991), at most [`HYPOTHESES`] of them. A hypothesis
-//!    counts the places whose centres it brings within [`CENTRE_TOLERANCE`] tolerances (parts of
+//!    true partner is often not the nearest one). Triples of the nearest pairs
+//!    ([`crate::MatchParams::verify_seeds`] of them: [`SEED_PAIRS`], [`SEED_PAIRS_RESAMPLED`]
+//!    on canonical surfaces) whose straight-line distances agree (RANSAC: M. A. Fischler,
+//!    R. C. Bolles, "Random sample consensus", Communications of the ACM 24(6), 1981) each give
+//!    the least-squares similarity transform (rotation, translation and, unless both shapes
+//!    are in file units, a uniform scale; S. Umeyama, "Least-squares estimation of
+//!    transformation parameters between two point patterns", IEEE TPAMI 13(4), 1991), at most
+//!    [`HYPOTHESES`] of them ([`HYPOTHESES_RESAMPLED`] with more seeds). A hypothesis counts
+//!    the places whose centres it brings within [`CENTRE_TOLERANCE`] tolerances (parts of
 //!    several levels grown from one keypoint share a centre and count once); the
 //!    [`CANDIDATES`] with most (and different inliers) are fitted again on their inliers.
 //! 2. **Decided on the surfaces, not on the centres.** The count of agreeing places does not
@@ -57,7 +59,10 @@ pub const SEED_PAIRS: usize = 60;
 /// 120 find it (BENCHMARKS.md, *Real range scans*).
 pub const SEED_PAIRS_RESAMPLED: usize = 120;
 /// Most transforms tried (the triples of [`SEED_PAIRS`] seeds whose distances agree).
-pub const HYPOTHESES: usize = 20_000;
+pub const HYPOTHESES: usize = 3000;
+/// Most transforms tried with more seeds than [`SEED_PAIRS`] (canonical surfaces'
+/// [`SEED_PAIRS_RESAMPLED`]: eight times the triples).
+pub const HYPOTHESES_RESAMPLED: usize = 20_000;
 /// Largest factor by which the straight-line distances between two pairs' centres may
 /// disagree (after the scale) for the pairs to be taken together.
 pub const RATIO_TOLERANCE: f64 = 1.2;
@@ -280,6 +285,11 @@ pub(crate) fn fitness(
     let scale_ok = |s: f64| fixed_scale.is_some() || (SCALE_RANGE.0..=SCALE_RANGE.1).contains(&s);
     // 1. hypotheses: triples of the best pairs whose straight-line distances agree
     let m = n.min(seeds.max(3));
+    let cap = if seeds > SEED_PAIRS {
+        HYPOTHESES_RESAMPLED
+    } else {
+        HYPOTHESES
+    };
     // two matched centres may each be off by the inlier tolerance; closer than one such
     // tolerance, two centres give no direction to align by
     let slack = 2.0 * CENTRE_TOLERANCE * tol;
@@ -314,7 +324,7 @@ pub(crate) fn fitness(
                 };
                 if fixed_scale.is_some() || (agree(rab, rac) && agree(rab, rbc)) {
                     triples.push([a, b, c]);
-                    if triples.len() >= HYPOTHESES {
+                    if triples.len() >= cap {
                         break 'seeds;
                     }
                 }

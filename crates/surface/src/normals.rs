@@ -34,6 +34,10 @@ use crate::trim::{kd_tree, nearest_ids};
 /// Points in a normal's PCA neighbourhood (the point itself included).
 pub const NEIGHBOURS: usize = 12;
 
+/// The neighbour whose distance measures a cloud's gaps ([`Cloud::samples`]): two neighbours
+/// along a line and the two across it come first.
+pub const GAP_NEIGHBOUR: usize = 4;
+
 /// Most points whose nearest-neighbour distance is measured for the spacing estimate.
 const SPACING_PROBES: usize = 4096;
 
@@ -112,7 +116,9 @@ impl Cloud {
 
     /// The points thinned to one per cube of side `s/2`, with oriented normals (see the module
     /// docs), and the largest gap the offset must bridge: the 90th percentile of the distance
-    /// from a kept point to its nearest kept neighbour.
+    /// from a kept point to its [`GAP_NEIGHBOUR`]-th nearest kept neighbour. Not the nearest:
+    /// points in lines (a scanner's rows, a mesh's rings of vertices) have their nearest
+    /// neighbour along the line, and the gap to the next line is the third or fourth.
     pub fn samples(&self, s: f64) -> (Samples, f64) {
         let given = Samples {
             positions: self.positions.clone(),
@@ -136,7 +142,8 @@ impl Cloud {
             .filter_map(|(p, nb)| {
                 nb.iter()
                     .map(|&j| (kept.positions[j as usize] - p).norm())
-                    .find(|&d| d > 0.0)
+                    .filter(|&d| d > 0.0)
+                    .nth(GAP_NEIGHBOUR - 1)
             })
             .collect();
         gaps.sort_by(f64::total_cmp);

@@ -156,6 +156,36 @@ fn point_clouds() {
     assert!(up as f64 > 0.9 * s.mesh.num_faces() as f64);
 }
 
+/// Points in lines, as a mesh's rings of vertices or a scanner's rows give them: dense along
+/// each line, sparse across. The gaps between lines are bridged: one closed surface.
+#[test]
+fn points_in_lines_close_across_them() {
+    // 30 rings of 200 points on a unit sphere: 0.03 apart along a ring, 0.1 across
+    let mut pts = vec![Point3::new(0.0, 0.0, 1.0), Point3::new(0.0, 0.0, -1.0)];
+    for i in 1..31 {
+        let th = std::f64::consts::PI * i as f64 / 31.0;
+        for j in 0..200 {
+            let ph = 2.0 * std::f64::consts::PI * j as f64 / 200.0;
+            pts.push(Point3::new(
+                th.sin() * ph.cos(),
+                th.sin() * ph.sin(),
+                th.cos(),
+            ));
+        }
+    }
+    let s = canonical(
+        Input::Points {
+            positions: &pts,
+            normals: None,
+        },
+        &params(10_000),
+    )
+    .expect("surface");
+    assert_eq!(boundary_edges(&s.mesh), 0);
+    let a = geometry::total_area(&s.mesh);
+    assert!((a / (4.0 * std::f64::consts::PI) - 1.0).abs() < 0.3, "{a}");
+}
+
 #[test]
 fn deterministic() {
     let m = synth::textured_protrusion_sphere(4);
