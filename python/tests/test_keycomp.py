@@ -166,10 +166,12 @@ def test_scans_and_point_clouds_on_canonical_surfaces(shape, tmp_path):
         index.add([cloud], surface="as-read")
     with pytest.raises(ValueError, match="'as-read' or 'canonical'"):
         keycomp.match(path, path, surface="remeshed")
-    # the scan matched with the same points as a cloud: its own parts
+    # the scan matches its own points, read as a bare cloud, better than another shape
     xyz = tmp_path / "scan.xyz"
     np.savetxt(xyz, pts)
-    assert keycomp.match(scan, xyz, surface="canonical").score > 0.5
+    own = keycomp.match(scan, xyz, surface="canonical").score
+    assert own > keycomp.match(scan, path, surface="canonical").score
+    assert own > 0
 
 
 def test_match_is_high_for_a_shape_and_itself(shape):
