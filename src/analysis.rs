@@ -387,15 +387,15 @@ impl Analysed {
     }
 
     /// The matching parameters for shapes described like this one: `base` with
-    /// `file_units` set from [`Analysed::units`] and verification's seed pairs from its surface
-    /// (`keycomp_retrieval::verify_seeds_for`).
+    /// `file_units` set from [`Analysed::units`] and verification's search from its surface
+    /// (`keycomp_retrieval::verify_search_for`).
     pub fn match_params(
         &self,
         base: &keycomp_retrieval::MatchParams,
     ) -> keycomp_retrieval::MatchParams {
         keycomp_retrieval::MatchParams {
             file_units: self.file_units(),
-            verify_seeds: keycomp_retrieval::verify_seeds_for(self.canonical),
+            verify_search: keycomp_retrieval::verify_search_for(self.canonical),
             ..*base
         }
     }

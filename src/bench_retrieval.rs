@@ -803,7 +803,7 @@ fn kc_ranking(
             match_params.file_units || canonical,
             verify,
         ),
-        verify_seeds: keycomp_retrieval::verify_seeds_for(canonical),
+        verify_search: keycomp_retrieval::verify_search_for(canonical),
         ..*match_params
     };
     if record.components.is_empty() {

@@ -303,7 +303,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
     let total_ms = t0.elapsed().as_secs_f64() * 1e3;
 
     if let Some(out) = &args.ply {
-        output::write_colours_on_input(input.as_ref(), mesh, &component_colors(mesh, &det), out)?;
+        output::write_colours_on_input(input, mesh, &component_colors(mesh, &det), out)?;
     }
     let t = det.timings;
     if args.json {

@@ -134,7 +134,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
         } else {
             None
         };
-        output::write_colours_on_input(input.as_ref(), &analysed.mesh, &colours, out)?;
+        output::write_colours_on_input(input, &analysed.mesh, &colours, out)?;
     }
     if args.json {
         output::print_json(&m)?;

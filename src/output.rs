@@ -85,7 +85,7 @@ pub fn error_chain(e: &anyhow::Error) -> String {
 /// vertices (or points, written without faces) takes the colour of its nearest canonical
 /// vertex, so the picture is of the file's own vertices; without `input`, `analysed` itself.
 pub fn write_colours_on_input(
-    input: Option<&keycomp_mesh::Geometry>,
+    input: Option<keycomp_mesh::Geometry>,
     analysed: &keycomp_mesh::Mesh,
     colours: &[[u8; 3]],
     out: &Path,
@@ -96,13 +96,13 @@ pub fn write_colours_on_input(
         return Ok(());
     };
     let on_input = match input {
-        Geometry::Mesh(m) => m.clone(),
+        Geometry::Mesh(m) => m,
         Geometry::Points(c) => Mesh {
-            positions: c.positions.clone(),
+            positions: c.positions,
             faces: Vec::new(),
         },
     };
-    let nearest = keycomp_surface::trim::nearest_vertices(&on_input.positions, &analysed.positions)
+    let nearest = keycomp_surface::nearest_vertices(&on_input.positions, &analysed.positions)
         .unwrap_or_else(|| vec![u32::MAX; on_input.positions.len()]);
     let mapped: Vec<[u8; 3]> = nearest
         .iter()

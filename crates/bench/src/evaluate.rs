@@ -94,28 +94,45 @@ impl Pullback {
                 true
             },
         );
-        let mut offsets = vec![0u32; map.len() + 1];
+        Ok(Pullback::from_labels(label, map.len()))
+    }
+
+    /// Labels every vertex of `shape` with its nearest vertex of `canonical` in space: carries
+    /// components found on a shape's canonical surface (`--surface canonical`) back to the
+    /// shape's vertices, which the surface lies on (a canonical component becomes the union
+    /// of its vertices' Voronoi cells among the shape's vertices). A canonical surface without
+    /// vertices labels nothing.
+    pub fn nearest(shape: &Mesh, canonical: &Mesh) -> Pullback {
+        let label = keycomp_surface::nearest_vertices(&shape.positions, &canonical.positions)
+            .unwrap_or_else(|| vec![NONE; shape.num_vertices()]);
+        Pullback::from_labels(label, canonical.num_vertices())
+    }
+
+    /// The CSR cells of `label` (each vertex's source among `sources` vertices, [`NONE`] for
+    /// none).
+    fn from_labels(label: Vec<u32>, sources: usize) -> Pullback {
+        let mut offsets = vec![0u32; sources + 1];
         for &t in &label {
             if t != NONE {
                 offsets[t as usize + 1] += 1;
             }
         }
-        for i in 0..map.len() {
+        for i in 0..sources {
             offsets[i + 1] += offsets[i];
         }
         let mut fill = offsets.clone();
-        let mut cells = vec![0; offsets[map.len()] as usize];
+        let mut cells = vec![0; offsets[sources] as usize];
         for (v, &t) in label.iter().enumerate() {
             if t != NONE {
                 cells[fill[t as usize] as usize] = v as VertexId;
                 fill[t as usize] += 1;
             }
         }
-        Ok(Pullback {
+        Pullback {
             label,
             offsets,
             cells,
-        })
+        }
     }
 
     /// The transformed vertex that null vertex `v` is carried from (`None` if `v` is on a piece

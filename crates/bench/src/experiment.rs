@@ -72,7 +72,6 @@ use serde::Serialize;
 
 use crate::BenchError;
 use crate::cache::{EmbeddingCache, Lookup, MserEntry, cache_key, mser_cache_key};
-use crate::canonical::Carrier;
 use crate::evaluate::{
     CumulativeTable, Pullback, Record, TableRow, best_overlaps, mean_overlap_table,
     repeatability_curve, repeatability_table,
@@ -408,7 +407,7 @@ pub struct Config {
     pub parallel_shapes: bool,
     /// Detect on each shape's canonical surface ([`keycomp_surface::canonical`]) instead of
     /// the mesh as generated, the components carried back to the mesh's vertices
-    /// ([`crate::canonical`]); `None`: on the mesh itself. Key-components only.
+    /// ([`Pullback::nearest`]); `None`: on the mesh itself. Key-components only.
     pub surface: Option<SurfaceParams>,
 }
 
@@ -732,7 +731,8 @@ impl Config {
             ),
             _ => None,
         };
-        let carrier = surface.as_ref().map(|s| Carrier::new(&mesh, s));
+        // canonical vertex -> the mesh's vertices nearest it (Pullback::nearest)
+        let carrier = surface.as_ref().map(|s| Pullback::nearest(&mesh, s));
         let detected: &Mesh = surface.as_ref().unwrap_or(&mesh);
         let (embedded, mut cache, mut cache_error) = if wants(true) {
             let (e, c, err) = self.stage1(detected, null)?;

@@ -18,7 +18,6 @@
 //! it uses none of its code in the `keycomp` library or command line.
 
 pub mod cache;
-pub mod canonical;
 mod error;
 pub mod evaluate;
 pub mod experiment;

@@ -129,10 +129,10 @@ pub struct MatchParams {
     /// most rows, scale-free scans most (TOSCA NN 0.667 to 0.778); 0.02–0.06 were measured
     /// (BENCHMARKS.md, *Geometric verification*).
     pub verify_tolerance: f64,
-    /// Tentative pairs, the nearest by descriptor first, whose triples give verification's
-    /// alignments ([`verify::SEED_PAIRS`] by default; [`verify::SEED_PAIRS_RESAMPLED`] where
-    /// query and shape are resampled, [`verify_seeds_for`]).
-    pub verify_seeds: usize,
+    /// How wide verification searches for the alignment ([`verify::VerifySearch::AS_READ`]
+    /// by default; [`verify::VerifySearch::RESAMPLED`] where query and shapes are resampled:
+    /// [`verify_search_for`]).
+    pub verify_search: verify::VerifySearch,
 }
 
 impl Default for MatchParams {
@@ -147,19 +147,19 @@ impl Default for MatchParams {
             pose_tolerance: 1.25,
             verify_weight: 0.0,
             verify_tolerance: 0.03,
-            verify_seeds: verify::SEED_PAIRS,
+            verify_search: verify::VerifySearch::AS_READ,
         }
     }
 }
 
-/// Verification's seed pairs ([`MatchParams::verify_seeds`]): [`verify::SEED_PAIRS_RESAMPLED`]
+/// Verification's search ([`MatchParams::verify_search`]): [`verify::VerifySearch::RESAMPLED`]
 /// when the query and the shapes are analysed on canonical surfaces (`resampled`), else
-/// [`verify::SEED_PAIRS`].
-pub fn verify_seeds_for(resampled: bool) -> usize {
+/// [`verify::VerifySearch::AS_READ`].
+pub fn verify_search_for(resampled: bool) -> verify::VerifySearch {
     if resampled {
-        verify::SEED_PAIRS_RESAMPLED
+        verify::VerifySearch::RESAMPLED
     } else {
-        verify::SEED_PAIRS
+        verify::VerifySearch::AS_READ
     }
 }
 
@@ -667,7 +667,7 @@ pub(crate) fn finish(
             &verify::tentative_pairs(d, mq, mt, max_d * verify::PAIR_REACH),
             params.file_units.then_some(1.0),
             params.verify_tolerance,
-            params.verify_seeds,
+            params.verify_search,
         )
     } else {
         None

@@ -4,13 +4,13 @@
 //! 1. **Alignment hypotheses from the parts.** Tentative pairs join each query part to its
 //!    [`PAIRS_PER_PART`] nearest target parts by descriptor (a scan's parts are cropped, so its
 //!    true partner is often not the nearest one). Triples of the nearest pairs
-//!    ([`crate::MatchParams::verify_seeds`] of them: [`SEED_PAIRS`], [`SEED_PAIRS_RESAMPLED`]
-//!    on canonical surfaces) whose straight-line distances agree (RANSAC: M. A. Fischler,
+//!    ([`crate::MatchParams::verify_search`]: [`VerifySearch::AS_READ`], or
+//!    [`VerifySearch::RESAMPLED`] on canonical surfaces) whose straight-line distances agree (RANSAC: M. A. Fischler,
 //!    R. C. Bolles, "Random sample consensus", Communications of the ACM 24(6), 1981) each give
 //!    the least-squares similarity transform (rotation, translation and, unless both shapes
 //!    are in file units, a uniform scale; S. Umeyama, "Least-squares estimation of
-//!    transformation parameters between two point patterns", IEEE TPAMI 13(4), 1991), at most
-//!    [`HYPOTHESES`] of them ([`HYPOTHESES_RESAMPLED`] with more seeds). A hypothesis counts
+//!    transformation parameters between two point patterns", IEEE TPAMI 13(4), 1991), up to the
+//!    search's cap. A hypothesis counts
 //!    the places whose centres it brings within [`CENTRE_TOLERANCE`] tolerances (parts of
 //!    several levels grown from one keypoint share a centre and count once); the
 //!    [`CANDIDATES`] with most (and different inliers) are fitted again on their inliers.
@@ -30,7 +30,7 @@
 //!    The exact source of a fragment scores highest, the same parts in another pose less (what
 //!    moved is off the surface), another shape less still.
 //!
-//! Cost: at most [`HYPOTHESES`] transforms checked against the pairs, [`CANDIDATES`] ×
+//! Cost: at most [`VerifySearch::hypotheses`] transforms checked against the pairs, [`CANDIDATES`] ×
 //! [`SCREEN_ROUNDS`] rounds on a thinned sample and [`REFINED`] × [`ICP_ITERATIONS`] rounds of
 //! KD-tree look-ups on the whole one: a few milliseconds per target, which is why a query
 //! verifies only its best candidates (`query::VERIFIED_CANDIDATES`).
@@ -38,6 +38,7 @@
 use kiddo::SquaredEuclidean;
 use kiddo::immutable::float::kdtree::ImmutableKdTree;
 use nalgebra::{Matrix3, Vector3};
+use serde::{Deserialize, Serialize};
 
 use crate::ShapeView;
 
@@ -49,20 +50,34 @@ pub const PAIRS_PER_PART: usize = 6;
 pub const PAIR_REACH: f32 = 1.5;
 /// Most tentative pairs, the nearest in descriptor space first, checked against a transform.
 pub const MAX_PAIRS: usize = 300;
-/// The nearest pairs whose triples give the transforms tried (the default of
-/// [`crate::MatchParams::verify_seeds`]): enough where a fragment keeps its source's
-/// tessellation, so that its parts are near copies of its source's.
-pub const SEED_PAIRS: usize = 60;
-/// Seed pairs on canonical surfaces ([`crate::verify_seeds_for`]): a resampled scan's parts
-/// are cropped and re-tessellated, so its true pairs lie further down the list by descriptor
-/// distance; with [`SEED_PAIRS`] the bunny's raw scans missed their model's alignment where
-/// 120 find it (BENCHMARKS.md, *Real range scans*).
-pub const SEED_PAIRS_RESAMPLED: usize = 120;
-/// Most transforms tried (the triples of [`SEED_PAIRS`] seeds whose distances agree).
-pub const HYPOTHESES: usize = 3000;
-/// Most transforms tried with more seeds than [`SEED_PAIRS`] (canonical surfaces'
-/// [`SEED_PAIRS_RESAMPLED`]: eight times the triples).
-pub const HYPOTHESES_RESAMPLED: usize = 20_000;
+/// How wide verification searches for the alignment ([`crate::MatchParams::verify_search`]):
+/// triples of the `seeds` nearest tentative pairs give the transforms tried, at most
+/// `hypotheses` of them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct VerifySearch {
+    /// The nearest pairs whose triples give the transforms tried.
+    pub seeds: usize,
+    /// Most transforms tried (the triples whose distances agree).
+    pub hypotheses: usize,
+}
+
+impl VerifySearch {
+    /// The default: enough where a fragment keeps its source's tessellation, so that its parts
+    /// are near copies of its source's.
+    pub const AS_READ: VerifySearch = VerifySearch {
+        seeds: 60,
+        hypotheses: 3000,
+    };
+    /// On canonical surfaces ([`crate::verify_search_for`]): a resampled scan's parts are
+    /// cropped and re-tessellated, so its true pairs lie further down the list by descriptor
+    /// distance; with [`VerifySearch::AS_READ`] the bunny's raw scans missed their model's
+    /// alignment where twice the seeds (eight times the triples) find it (BENCHMARKS.md, *Real
+    /// range scans*).
+    pub const RESAMPLED: VerifySearch = VerifySearch {
+        seeds: 120,
+        hypotheses: 20_000,
+    };
+}
 /// Largest factor by which the straight-line distances between two pairs' centres may
 /// disagree (after the scale) for the pairs to be taken together.
 pub const RATIO_TOLERANCE: f64 = 1.2;
@@ -251,7 +266,7 @@ pub(crate) fn tentative_pairs(
 /// The fitness of `query` on `target` (see the module documentation) given tentative pairs of
 /// parts `(query part, target part, descriptor distance)`, in [0, 1]; `fixed_scale` is 1 in
 /// file units, `None` when the scale is unknown; `tolerance` in the target's length unit;
-/// triples of the `seeds` nearest pairs give the alignments tried.
+/// `search` bounds the alignments tried.
 /// `None` when either shape has no centres or no sample, or fewer than three pairs have
 /// centres (nothing to align with).
 pub(crate) fn fitness(
@@ -260,7 +275,7 @@ pub(crate) fn fitness(
     tentative: &[(usize, usize, f32)],
     fixed_scale: Option<f64>,
     tolerance: f64,
-    seeds: usize,
+    search: VerifySearch,
 ) -> Option<Verified> {
     if query.sample.is_empty() || target.sample.is_empty() {
         return None;
@@ -284,12 +299,7 @@ pub(crate) fn fitness(
         |t: &Similarity, i: usize| (t.apply(&src[i]) - dst[i]).norm_squared() <= centre_tol2;
     let scale_ok = |s: f64| fixed_scale.is_some() || (SCALE_RANGE.0..=SCALE_RANGE.1).contains(&s);
     // 1. hypotheses: triples of the best pairs whose straight-line distances agree
-    let m = n.min(seeds.max(3));
-    let cap = if seeds > SEED_PAIRS {
-        HYPOTHESES_RESAMPLED
-    } else {
-        HYPOTHESES
-    };
+    let m = n.min(search.seeds);
     // two matched centres may each be off by the inlier tolerance; closer than one such
     // tolerance, two centres give no direction to align by
     let slack = 2.0 * CENTRE_TOLERANCE * tol;
@@ -324,7 +334,7 @@ pub(crate) fn fitness(
                 };
                 if fixed_scale.is_some() || (agree(rab, rac) && agree(rab, rbc)) {
                     triples.push([a, b, c]);
-                    if triples.len() >= cap {
+                    if triples.len() >= search.hypotheses {
                         break 'seeds;
                     }
                 }
@@ -584,7 +594,7 @@ mod tests {
                 &matches,
                 None,
                 0.02,
-                SEED_PAIRS,
+                VerifySearch::AS_READ,
             )
             .expect("verified")
             .fitness
@@ -612,7 +622,7 @@ mod tests {
                 &matches,
                 None,
                 0.02,
-                SEED_PAIRS
+                VerifySearch::AS_READ
             )
             .is_none()
         );
@@ -623,7 +633,7 @@ mod tests {
                 &matches[..2],
                 None,
                 0.02,
-                SEED_PAIRS
+                VerifySearch::AS_READ
             )
             .is_none()
         );
@@ -666,7 +676,7 @@ mod tests {
             &matches,
             Some(1.0),
             0.02,
-            SEED_PAIRS,
+            VerifySearch::AS_READ,
         )
         .expect("verified");
         assert!(v.fitness > 0.99, "fitness {}", v.fitness);

@@ -60,6 +60,7 @@ pub mod trim;
 pub mod volume;
 
 pub use error::SurfaceError;
+pub use trim::nearest_vertices;
 
 use keycomp_mesh::{Mesh, Point3, Vector3, geometry};
 use serde::{Deserialize, Serialize};

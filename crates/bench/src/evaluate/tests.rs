@@ -214,3 +214,61 @@ fn cumulative_tables_pool_strengths() {
     let back: CumulativeTable = serde_json::from_str(&json).unwrap();
     assert_eq!(back, t);
 }
+
+fn points(p: &[[f64; 3]]) -> Mesh {
+    Mesh {
+        positions: p
+            .iter()
+            .map(|&[x, y, z]| keycomp_mesh::Point3::new(x, y, z))
+            .collect(),
+        faces: Vec::new(),
+    }
+}
+
+#[test]
+fn each_vertex_goes_with_its_nearest_canonical_vertex() {
+    // oracle: brute-force nearest neighbour
+    let shape: Vec<[f64; 3]> = (0..50)
+        .map(|i| {
+            let t = i as f64 * 0.37;
+            [t.sin(), t.cos(), 0.1 * t]
+        })
+        .collect();
+    let canon: Vec<[f64; 3]> = (0..7)
+        .map(|i| {
+            let t = i as f64 * 2.6;
+            [t.sin(), t.cos(), 0.1 * t]
+        })
+        .collect();
+    let carrier = Pullback::nearest(&points(&shape), &points(&canon));
+    let nearest = |p: &[f64; 3]| {
+        (0..canon.len())
+            .min_by(|&a, &b| {
+                let d = |c: &[f64; 3]| (0..3).map(|k| (c[k] - p[k]).powi(2)).sum::<f64>();
+                d(&canon[a]).total_cmp(&d(&canon[b]))
+            })
+            .unwrap() as VertexId
+    };
+    let component = [1, 4, 5];
+    let expected: Vec<VertexId> = (0..shape.len() as VertexId)
+        .filter(|&v| component.contains(&nearest(&shape[v as usize])))
+        .collect();
+    assert!(!expected.is_empty());
+    assert_eq!(carrier.carry(&component), expected);
+    // every vertex lies in exactly one cell
+    let all: Vec<VertexId> = (0..canon.len() as VertexId).collect();
+    assert_eq!(carrier.carry(&all).len(), shape.len());
+    assert!(carrier.carry(&[99]).is_empty());
+}
+
+#[test]
+fn the_same_vertices_carry_onto_themselves() {
+    let p = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 2.0, 0.0],
+        [0.0, 0.0, 3.0],
+    ];
+    let carrier = Pullback::nearest(&points(&p), &points(&p));
+    assert_eq!(carrier.carry(&[2, 0]), vec![0, 2]);
+}
