@@ -876,7 +876,7 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
     let files = list_meshes(&args.collection, "--collection")?;
     if files.len() < 2 {
         bail!(
-            "{}: found {} mesh file(s) (.off, .obj, .ply, .stl, .gltf, .glb); retrieval needs at least 2",
+            "{}: found {} mesh, scan or point-cloud file(s) (.off, .obj, .ply, .stl, .gltf, .glb, .xyz, .pts, .pcd); retrieval needs at least 2",
             args.collection.display(),
             files.len()
         );
@@ -1290,21 +1290,14 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
         if let Some(r) = rep {
             repeatability.push((kind.name(), fraction, r));
         }
-        let (returned, components, error) = match &rec {
-            Ok(r) => (
-                kc_ranking(
-                    &reader,
-                    r,
-                    &index_of,
-                    &match_params,
-                    args.verify_weight,
-                    params.surface.is_some(),
-                )?,
-                r.first().map_or(0, |r| r.components.len()),
-                None,
-            ),
-            Err(e) => (Vec::new(), 0, Some(output::error_chain(e))),
-        };
+        let (returned, components, error) = kc_answer(
+            &rec,
+            &reader,
+            &index_of,
+            &match_params,
+            args.verify_weight,
+            params.surface.is_some(),
+        )?;
         let kc_order = complete_ranking(
             &returned,
             n,
@@ -1462,6 +1455,27 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+/// A query's key-component answer: the shapes ranked ([`kc_ranking`]), its component count
+/// and, when it could not be analysed (detection may fail on a fragment or a scan), why; its
+/// ranking is then empty (random).
+fn kc_answer(
+    rec: &Result<Vec<ShapeRecord<DIM>>>,
+    reader: &Reader,
+    index_of: &HashMap<PathBuf, usize>,
+    match_params: &MatchParams,
+    verify: Option<f64>,
+    canonical: bool,
+) -> Result<(Vec<usize>, usize, Option<String>)> {
+    Ok(match rec {
+        Ok(r) => (
+            kc_ranking(reader, r, index_of, match_params, verify, canonical)?,
+            r.first().map_or(0, |r| r.components.len()),
+            None,
+        ),
+        Err(e) => (Vec::new(), 0, Some(output::error_chain(e))),
+    })
+}
+
 /// What an external query is measured against: the run's options, index and baselines.
 struct Setting<'a> {
     args: &'a Args,
@@ -1509,21 +1523,14 @@ fn external_query(t: &Truth, q: usize, s: &Setting<'_>) -> Result<QueryResult> {
                 .records(&t.query, hash, s.params, Role::Query)
                 .map(|(r, _)| r)
         });
-    let (returned, components, error) = match &rec {
-        Ok(r) => (
-            kc_ranking(
-                s.reader,
-                r,
-                s.index_of,
-                s.match_params,
-                s.args.verify_weight,
-                s.params.surface.is_some() || points,
-            )?,
-            r.first().map_or(0, |r| r.components.len()),
-            None,
-        ),
-        Err(e) => (Vec::new(), 0, Some(output::error_chain(e))),
-    };
+    let (returned, components, error) = kc_answer(
+        &rec,
+        s.reader,
+        s.index_of,
+        s.match_params,
+        s.args.verify_weight,
+        s.params.surface.is_some() || points,
+    )?;
     let src = t.source;
     let class = t.class.as_ref().unwrap_or(&s.classes[src]);
     let seed = s.args.seed;

@@ -12,9 +12,12 @@ use common::{keycomp, s, shared_data, stderr, stdout};
 use keycomp_mesh::{Mesh, Point3, synth, write_off};
 use serde_json::Value;
 
-/// Three classes of three shapes each, written as OFF files: spheres with bumps of different
-/// heights, tori of different thickness, ellipsoids of different proportions.
-fn synthetic_collection(dir: &Path) {
+/// Three classes of three shapes each, written as OFF files into the new folder `dir/shapes`
+/// (returned): spheres with bumps of different heights, tori of different thickness,
+/// ellipsoids of different proportions.
+fn synthetic_collection(dir: &Path) -> PathBuf {
+    let dir = dir.join("shapes");
+    std::fs::create_dir(&dir).unwrap();
     let scaled = |m: Mesh, s: [f64; 3]| Mesh {
         positions: m
             .positions
@@ -47,6 +50,7 @@ fn synthetic_collection(dir: &Path) {
         )
         .unwrap();
     }
+    dir
 }
 
 fn results(out: &Path) -> Value {
@@ -125,9 +129,7 @@ fn prefix_class(name: &str) -> String {
 #[test]
 fn synthetic_collection_end_to_end() {
     let tmp = tempfile::tempdir().unwrap();
-    let coll = tmp.path().join("shapes");
-    std::fs::create_dir(&coll).unwrap();
-    synthetic_collection(&coll);
+    let coll = synthetic_collection(tmp.path());
     let out = tmp.path().join("out");
     let args = [
         "bench",
@@ -284,9 +286,7 @@ fn synthetic_collection_end_to_end() {
 #[test]
 fn external_queries_with_their_truth() {
     let tmp = tempfile::tempdir().unwrap();
-    let coll = tmp.path().join("shapes");
-    std::fs::create_dir(&coll).unwrap();
-    synthetic_collection(&coll);
+    let coll = synthetic_collection(tmp.path());
     let queries = tmp.path().join("queries");
     std::fs::create_dir(&queries).unwrap();
     std::fs::copy(coll.join("torus1.off"), queries.join("copy.off")).unwrap();

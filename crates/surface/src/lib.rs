@@ -32,8 +32,9 @@
 //!    too, the face is kept only on the side its nearest sample's normal points to: a scan or a
 //!    fragment keeps one side and its boundary, a closed solid keeps everything (its mirror
 //!    points lie inside it). Only an input whose shell is at least [`SHEET_SHARE`] backs is
-//!    trimmed: a solid's thin parts, or a CAD soup's single-sided panels, stay closed. Pieces of less than [`SurfaceParams::min_piece`] of the area
-//!    (specks of sensor noise) are dropped.
+//!    trimmed: a solid's thin parts, or a CAD soup's single-sided panels, stay closed. Pieces
+//!    of less than [`SurfaceParams::min_piece`] of the area (specks of sensor noise) are
+//!    dropped.
 //! 5. **Back onto the input** ([`trim::project`]). Each vertex moves to the nearest point of the
 //!    input: of the mesh's triangles near it, or of the tangent plane of the nearest points of
 //!    a cloud (where the skin wrapped around a cloud's open border lies flat beyond the last

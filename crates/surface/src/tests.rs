@@ -116,18 +116,23 @@ fn a_soup_becomes_one_solid() {
     assert!((9.3..10.3).contains(&a), "{a}");
 }
 
+/// The canonical surface of points without normals, for `vertices`.
+fn cloud_surface(points: &[Point3<f64>], vertices: usize) -> Surface {
+    canonical(
+        Input::Points {
+            positions: points,
+            normals: None,
+        },
+        &params(vertices),
+    )
+    .expect("surface")
+}
+
 /// Points on a sphere make a closed surface; one view of a bump an open one facing its viewer.
 #[test]
 fn point_clouds() {
     let pts = crate::normals::tests_support::fibonacci_sphere(5000, 1.0);
-    let s = canonical(
-        Input::Points {
-            positions: &pts,
-            normals: None,
-        },
-        &params(2000),
-    )
-    .expect("surface");
+    let s = cloud_surface(&pts, 2000);
     assert_eq!(boundary_edges(&s.mesh), 0);
     let a = geometry::total_area(&s.mesh);
     assert!((a / (4.0 * std::f64::consts::PI) - 1.0).abs() < 0.3, "{a}");
@@ -138,14 +143,7 @@ fn point_clouds() {
             bump.push(Point3::new(x, y, 0.5 * (1.0 - 0.5 * (x * x + y * y))));
         }
     }
-    let s = canonical(
-        Input::Points {
-            positions: &bump,
-            normals: None,
-        },
-        &params(2000),
-    )
-    .expect("surface");
+    let s = cloud_surface(&bump, 2000);
     assert!(boundary_edges(&s.mesh) > 0);
     let up = (0..s.mesh.num_faces())
         .filter(|&f| {
@@ -173,14 +171,7 @@ fn points_in_lines_close_across_them() {
             ));
         }
     }
-    let s = canonical(
-        Input::Points {
-            positions: &pts,
-            normals: None,
-        },
-        &params(10_000),
-    )
-    .expect("surface");
+    let s = cloud_surface(&pts, 10_000);
     assert_eq!(boundary_edges(&s.mesh), 0);
     let a = geometry::total_area(&s.mesh);
     assert!((a / (4.0 * std::f64::consts::PI) - 1.0).abs() < 0.3, "{a}");

@@ -131,16 +131,9 @@ pub fn classes_from_csv(
     root: &Path,
     csv: &Path,
 ) -> Result<Vec<String>, LabelError> {
-    let text = keycomp_mesh::io::output::read_input_text(csv).map_err(|source| LabelError::Io {
-        path: csv.to_path_buf(),
-        source,
-    })?;
+    let text = read_csv(csv)?;
     let mut map: HashMap<String, String> = HashMap::new();
-    for (i, line) in text.lines().enumerate() {
-        let t = line.trim();
-        if t.is_empty() || t.starts_with('#') || (i == 0 && t.eq_ignore_ascii_case("file,class")) {
-            continue;
-        }
+    for (i, t) in data_lines(&text, |t| t.eq_ignore_ascii_case("file,class")) {
         let bad = || LabelError::BadLine {
             path: csv.to_path_buf(),
             line: i + 1,
@@ -192,21 +185,50 @@ fn names_of(f: &Path, root: &Path) -> [String; 3] {
     [rel, file_name, stem(f)]
 }
 
-/// The files of `files` that `name` names (by path relative to `root`, file name or stem): the
-/// most specific kind of name that matches any file decides.
-fn resolve<'a>(name: &str, files: &'a [PathBuf], root: &Path) -> Vec<&'a PathBuf> {
-    let named: Vec<[String; 3]> = files.iter().map(|f| names_of(f, root)).collect();
-    (0..3)
-        .map(|k| {
-            files
-                .iter()
-                .zip(&named)
-                .filter(|(_, n)| !n[k].is_empty() && n[k] == name)
-                .map(|(f, _)| f)
-                .collect::<Vec<_>>()
-        })
-        .find(|m| !m.is_empty())
-        .unwrap_or_default()
+/// The files answering to each name, by kind of name ([`names_of`]), built once per list.
+struct Names(Vec<HashMap<String, Vec<usize>>>);
+
+impl Names {
+    fn new(files: &[PathBuf], root: &Path) -> Names {
+        let mut by_kind = vec![HashMap::<String, Vec<usize>>::new(); 3];
+        for (i, f) in files.iter().enumerate() {
+            for (k, name) in names_of(f, root).into_iter().enumerate() {
+                if !name.is_empty() {
+                    by_kind[k].entry(name).or_default().push(i);
+                }
+            }
+        }
+        Names(by_kind)
+    }
+
+    /// The files (indices) that `name` names: the most specific kind of name (relative path,
+    /// file name, stem) that any file answers to decides.
+    fn resolve(&self, name: &str) -> &[usize] {
+        self.0
+            .iter()
+            .find_map(|m| m.get(name))
+            .map_or(&[], Vec::as_slice)
+    }
+}
+
+/// The text of a CSV file.
+fn read_csv(csv: &Path) -> Result<String, LabelError> {
+    keycomp_mesh::io::output::read_input_text(csv).map_err(|source| LabelError::Io {
+        path: csv.to_path_buf(),
+        source,
+    })
+}
+
+/// The lines of a CSV text that hold data, with their 0-based numbers, trimmed: blank lines,
+/// lines starting with `#` and a first line that `header` accepts are skipped.
+fn data_lines<'a>(
+    text: &'a str,
+    header: impl Fn(&str) -> bool + 'a,
+) -> impl Iterator<Item = (usize, &'a str)> + 'a {
+    text.lines()
+        .map(str::trim)
+        .enumerate()
+        .filter(move |&(i, t)| !(t.is_empty() || t.starts_with('#') || (i == 0 && header(t))))
 }
 
 /// External queries and their ground truth from a CSV file of `query,source[,class]` lines
@@ -224,16 +246,10 @@ pub fn truth_from_csv(
     root: &Path,
     csv: &Path,
 ) -> Result<Vec<Truth>, LabelError> {
-    let text = keycomp_mesh::io::output::read_input_text(csv).map_err(|source| LabelError::Io {
-        path: csv.to_path_buf(),
-        source,
-    })?;
+    let text = read_csv(csv)?;
+    let (query_names, file_names) = (Names::new(queries, query_root), Names::new(files, root));
     let mut out = Vec::new();
-    for (i, line) in text.lines().enumerate() {
-        let t = line.trim();
-        if t.is_empty() || t.starts_with('#') || (i == 0 && t.starts_with("query,")) {
-            continue;
-        }
+    for (i, t) in data_lines(&text, |t| t.starts_with("query,")) {
         let fields: Vec<&str> = t.split(',').map(str::trim).collect();
         if !(2..=3).contains(&fields.len()) || fields.iter().any(|f| f.is_empty()) {
             return Err(LabelError::BadTruthLine {
@@ -242,14 +258,14 @@ pub fn truth_from_csv(
                 text: t.to_string(),
             });
         }
-        let one = |name: &str, among: &[PathBuf], root: &Path, what: &str| {
+        let one = |name: &str, names: &Names, among: &[PathBuf], root: &Path, what: &str| {
             let unresolved = |w: String| LabelError::Unresolved {
                 path: csv.to_path_buf(),
                 line: i + 1,
                 what: w,
             };
-            match resolve(name, among, root).as_slice() {
-                [f] => Ok((*f).clone()),
+            match *names.resolve(name) {
+                [f] => Ok(f),
                 [] => Err(unresolved(format!(
                     "no {what} named '{name}' under {} (name it by file name, stem or path \
                      relative to the folder)",
@@ -258,17 +274,17 @@ pub fn truth_from_csv(
                 [a, b, ..] => Err(unresolved(format!(
                     "'{name}' names more than one {what} ({} and {}): give the path relative \
                      to {}",
-                    a.display(),
-                    b.display(),
+                    among[a].display(),
+                    among[b].display(),
                     root.display()
                 ))),
             }
         };
-        let query = one(fields[0], queries, query_root, "query file")?;
-        let source = one(fields[1], files, root, "collection file")?;
+        let query = one(fields[0], &query_names, queries, query_root, "query file")?;
+        let source = one(fields[1], &file_names, files, root, "collection file")?;
         out.push(Truth {
-            query,
-            source: files.iter().position(|f| *f == source).unwrap_or_default(),
+            query: queries[query].clone(),
+            source,
             class: fields.get(2).map(|c| c.to_string()),
         });
     }
