@@ -31,7 +31,7 @@ pub fn s(p: &Path) -> &str {
 
 /// `../shared/data`, or `None` after printing a skip message when it is absent.
 pub fn shared_data() -> Option<PathBuf> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data");
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data");
     if p.is_dir() {
         Some(p)
     } else {

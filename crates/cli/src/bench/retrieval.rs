@@ -6,7 +6,7 @@
 //! [`keycomp::record_of`], the function `keycomp index add` uses, with the same
 //! detection options ([`DetectArgs::retrieval_params`], the same defaults, including the
 //! scaling of N for small meshes), the records are written to a fresh on-disk index in
-//! `OUT/index` (opened by [`crate::index_cmd::open_writer`], as `index add` does), and each query is ranked by `keycomp_retrieval::rank` over that
+//! `OUT/index` (opened by [`crate::progress::open_writer`], as `index add` does), and each query is ranked by `keycomp_retrieval::rank` over that
 //! index, as `keycomp query` does. A partial query is written to `OUT/fragments` as an OFF file
 //! and analysed as `keycomp query` analyses a file given to it ([`keycomp::records_as`] with
 //! [`keycomp::Role::Query`]: scale-free, a fragment is described under two scale hypotheses
@@ -75,10 +75,12 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::detect::DetectArgs;
-use crate::index_cmd::{Profile, Reader, open_writer, progress};
-use crate::match_cmd::analyse;
+use crate::args::DetectArgs;
 use crate::output;
+use crate::progress::{open_writer, progress};
+use keycomp::Profile;
+use keycomp::analyse;
+use keycomp::collection::Reader;
 use keycomp::collection::{areas_of, unit_from_areas};
 use keycomp::{Role, records_as};
 
@@ -199,7 +201,7 @@ pub struct Args {
     pub max_distance: Option<f32>,
     /// Ablation: how much the pose check weighs (`MatchParams::pose_weight`, in [0, 1])
     /// [default: the matching's].
-    #[arg(long, value_name = "W", value_parser = crate::output::unit_weight)]
+    #[arg(long, value_name = "W", value_parser = crate::args::unit_weight)]
     pub pose_weight: Option<f64>,
     /// Ablation: the pose check's tolerance (`MatchParams::pose_tolerance`, ≥ 1) [default: the
     /// matching's].
@@ -208,7 +210,7 @@ pub struct Args {
     /// Ablation: how much geometric verification weighs (`MatchParams::verify_weight`, in
     /// [0, 1]) for every query [default: automatic, `keycomp_retrieval::verify_weight_for`:
     /// 0.5 for a fragment (1 in file units or on canonical surfaces), 0 for a whole shape].
-    #[arg(long, value_name = "W", value_parser = crate::output::unit_weight)]
+    #[arg(long, value_name = "W", value_parser = crate::args::unit_weight)]
     pub verify_weight: Option<f64>,
     /// Ablation: geometric verification's tolerance (`MatchParams::verify_tolerance`, > 0)
     /// [default: the matching's].

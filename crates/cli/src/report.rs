@@ -23,9 +23,9 @@ use keycomp_render::{RenderParams, render};
 use keycomp_retrieval::Ranked;
 
 use crate::colors;
-use crate::index_cmd::Reader;
-use crate::match_cmd::Analysed;
 use crate::output;
+use keycomp::Analysed;
+use keycomp::collection::Reader;
 
 /// Colour of a result's components that match nothing.
 const UNMATCHED: [u8; 3] = [110, 110, 110];

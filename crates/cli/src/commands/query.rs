@@ -8,7 +8,7 @@ use std::process::ExitCode;
 use anyhow::Result;
 use keycomp::search::{QueryTimings, Searcher};
 
-use crate::detect::DetectArgs;
+use crate::args::DetectArgs;
 use crate::{output, report};
 
 pub const EXAMPLES: &str = "Examples:
@@ -25,12 +25,12 @@ pub struct Args {
     #[arg(long, default_value = "index", value_name = "DIR")]
     pub index: PathBuf,
     /// Number of results.
-    #[arg(short = 'k', long = "top", default_value_t = 10, value_parser = crate::output::at_least_one)]
+    #[arg(short = 'k', long = "top", default_value_t = 10, value_parser = crate::args::at_least_one)]
     pub k: usize,
     /// Weight of the pose check, 0–1: above 0, shapes whose matched parts sit as the query's
     /// do (the same pose, a fragment's exact source) rank above the same parts in another
     /// pose. 0 (default) ranks independently of pose, as classes of articulated shapes need.
-    #[arg(long, value_name = "W", default_value_t = 0.0, value_parser = crate::output::unit_weight)]
+    #[arg(long, value_name = "W", default_value_t = 0.0, value_parser = crate::args::unit_weight)]
     pub pose: f64,
     /// Weight of geometric verification, 0–1, or auto (the default: 0.5 for a query with a
     /// boundary, a fragment or a scan, 1 in file units or on canonical surfaces; 0 for a closed
@@ -38,8 +38,8 @@ pub struct Args {
     /// score is scaled by 1 − W·(1 − f), f the share of the query's surface that lies on the
     /// shape once aligned by the matched parts, so a fragment's exact source ranks first. It
     /// re-ranks the 32 best candidates; those beyond count as fitness 0.
-    #[arg(long, value_name = "W|auto", default_value = "auto", value_parser = crate::output::auto_or_unit_weight)]
-    pub verify: crate::output::AutoWeight,
+    #[arg(long, value_name = "W|auto", default_value = "auto", value_parser = crate::args::auto_or_unit_weight)]
+    pub verify: crate::args::AutoWeight,
     #[command(flatten)]
     pub detect: DetectArgs,
     /// Print JSON.

@@ -1,7 +1,8 @@
 //! Vertex colours for the PLY outputs: a colour map for scalar fields and a palette of distinct
 //! colours for key-components.
 
-use keycomp_mesh::{Topology, VertexId};
+use keycomp_components::Detection;
+use keycomp_mesh::{Mesh, Topology, VertexId};
 
 /// Neutral grey for vertices that belong to nothing.
 pub const GREY: [u8; 3] = [170, 170, 170];
@@ -79,6 +80,19 @@ fn hsv(h: f64, s: f64, v: f64) -> [u8; 3] {
         _ => (c, 0.0, x),
     };
     [r, g, b].map(|u| ((u + m) * 255.0).round() as u8)
+}
+
+/// Colours each key-component distinctly, grey elsewhere (later components paint over earlier
+/// ones where they overlap).
+pub fn component_colors(mesh: &Mesh, det: &Detection) -> Vec<[u8; 3]> {
+    let mut cols = vec![GREY; mesh.num_vertices()];
+    for c in &det.components {
+        let col = distinct(c.id);
+        for &v in &c.vertices {
+            cols[v as usize] = col;
+        }
+    }
+    cols
 }
 
 #[cfg(test)]

@@ -34,37 +34,6 @@ pub fn print_text(text: &str) -> Result<()> {
     Ok(())
 }
 
-/// Parses a count that must be at least 1 (clap `value_parser` of `-k`, `--runs`, …).
-pub fn at_least_one(s: &str) -> Result<usize, String> {
-    match s.trim().parse::<usize>() {
-        Ok(n) if n >= 1 => Ok(n),
-        _ => Err(format!("'{s}': expected a whole number of at least 1")),
-    }
-}
-
-/// Parses a weight in [0, 1] (a clap value parser).
-pub fn unit_weight(s: &str) -> Result<f64, String> {
-    match s.trim().parse::<f64>() {
-        Ok(w) if (0.0..=1.0).contains(&w) => Ok(w),
-        _ => Err(format!("'{s}': expected a number between 0 and 1")),
-    }
-}
-
-/// A weight between 0 and 1, or `auto` (`None`): the value of `--verify`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct AutoWeight(pub Option<f64>);
-
-/// Parses `auto` or a weight between 0 and 1 (clap's value parser of `--verify`).
-pub fn auto_or_unit_weight(s: &str) -> Result<AutoWeight, String> {
-    if s.trim().eq_ignore_ascii_case("auto") {
-        Ok(AutoWeight(None))
-    } else {
-        unit_weight(s)
-            .map(|w| AutoWeight(Some(w)))
-            .map_err(|_| format!("'{s}': expected 'auto' or a number between 0 and 1"))
-    }
-}
-
 /// Writes `bytes` to the file `path` through [`keycomp_mesh::io::output`]: atomically, symbolic
 /// links followed, a FIFO or device written in place, a directory or a missing folder refused.
 pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<()> {

@@ -1,74 +1,18 @@
 //! `keycomp index add|list|stats|remove|verify`: the on-disk index of described shapes.
 
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
 
-use anyhow::{Result, bail};
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use keycomp::collection::{self, AddOptions, Failure, Units};
+use anyhow::Result;
+use keycomp::collection::{self, AddOptions};
 use keycomp_describe::DIM;
 
-pub use keycomp::Profile;
-pub use keycomp::collection::{Reader, Writer};
+use keycomp::collection::Reader;
 
-use crate::detect::DetectArgs;
+use crate::args::{DetectArgs, SurfaceArgs, UnitsArgs};
 use crate::output;
-
-/// Opens (or creates) the index at `dir` for adding shapes analysed with `profile`: an empty
-/// index takes it, an index made another way is refused with a clear error.
-pub fn open_writer(dir: &Path, profile: &Profile) -> Result<Writer> {
-    let mut w = Writer::create_or_open(dir)?;
-    w.ensure_profile(&profile.to_text()?)?;
-    Ok(w)
-}
-
-/// The length unit options of the commands that describe shapes (`index add`, `match`).
-#[derive(Debug, Clone, clap::Args)]
-pub struct UnitsArgs {
-    /// Length unit of the description: scale-free (every mesh scaled to unit area on its own,
-    /// the default) or file (the files' own units, for a collection and queries in the same
-    /// real units, e.g. CAD in mm or calibrated scans: a fragment keeps its source's scale).
-    /// Recorded in the index's profile; queries use the index's.
-    #[arg(long, value_name = "MODE", value_parser = ["scale-free", "file"])]
-    pub units: Option<String>,
-    /// With --units file: the length unit, in file units [default: the square root of the
-    /// median surface area of the shapes added (`index add` into a new index) or of the second
-    /// shape (`match`)].
-    #[arg(long, value_name = "L", requires = "units")]
-    pub unit_length: Option<f64>,
-}
-
-impl UnitsArgs {
-    /// The units asked for (`None`: none given).
-    pub fn units(&self) -> Result<Option<Units>> {
-        Ok(match (self.units.as_deref(), self.unit_length) {
-            (None, None) => None,
-            (Some("file"), length) => Some(Units::File { length }),
-            (_, Some(_)) => bail!("--unit-length needs --units file"),
-            (_, None) => Some(Units::ScaleFree),
-        })
-    }
-}
-
-/// What the commands that describe shapes (`index add`, `match`) analyse.
-#[derive(Debug, Clone, clap::Args)]
-pub struct SurfaceArgs {
-    /// The surface analysed: as-read (the mesh as the file gives it, the default for a new
-    /// index) or canonical (every input remade as one connected surface of about 10,000
-    /// vertices, the same whatever its tessellation: CAD soups, scans, meshes at other
-    /// resolutions). Point clouds are always analysed on their canonical surface. Recorded in
-    /// the index's profile; queries use the index's.
-    #[arg(long, value_name = "MODE", value_parser = ["as-read", "canonical"])]
-    pub surface: Option<String>,
-}
-
-impl SurfaceArgs {
-    /// `Some(true)`: canonical asked for; `Some(false)`: as read; `None`: not given.
-    pub fn canonical(&self) -> Option<bool> {
-        self.surface.as_deref().map(|s| s == "canonical")
-    }
-}
+use crate::progress::{Bar, progress};
 
 /// Index subcommands.
 #[derive(Debug, clap::Subcommand)]
@@ -144,18 +88,6 @@ pub struct RemoveArgs {
     pub dir: DirArgs,
 }
 
-/// A progress bar on stderr, hidden when stderr is not a terminal.
-pub fn progress(len: u64, what: &str) -> ProgressBar {
-    let bar = ProgressBar::with_draw_target(Some(len), ProgressDrawTarget::stderr());
-    if let Ok(style) =
-        ProgressStyle::with_template("{spinner} {msg} [{bar:30}] {pos}/{len} {elapsed} (eta {eta})")
-    {
-        bar.set_style(style.progress_chars("=> "));
-    }
-    bar.set_message(what.to_string());
-    bar
-}
-
 pub fn run(cmd: IndexCommand) -> Result<ExitCode> {
     match cmd {
         IndexCommand::Add(a) => add(*a),
@@ -164,24 +96,6 @@ pub fn run(cmd: IndexCommand) -> Result<ExitCode> {
         IndexCommand::Remove(r) => remove(r),
         IndexCommand::Verify(d) => verify(d),
         IndexCommand::Merge(m) => merge(m),
-    }
-}
-
-/// Progress of an add on a bar, failures printed above it.
-pub struct Bar(pub ProgressBar);
-
-impl collection::Progress for Bar {
-    fn files(&self, count: usize) {
-        self.0.set_length(count as u64);
-    }
-    fn file_done(&self) {
-        self.0.inc(1);
-    }
-    fn failed(&self, failure: &Failure) {
-        self.0.suspend(|| eprintln!("skipped: {}", failure.message));
-    }
-    fn warned(&self, message: &str) {
-        self.0.suspend(|| eprintln!("warning: {message}"));
     }
 }
 

@@ -15,10 +15,11 @@ use keycomp_shapes::{Class, GenerateParams, Shape};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use crate::detect::DetectArgs;
-use crate::index_cmd::{Bar, Profile, progress};
-use crate::match_cmd::Analysed;
+use crate::args::DetectArgs;
+use crate::progress::{Bar, progress};
 use crate::{output, report};
+use keycomp::Analysed;
+use keycomp::Profile;
 use keycomp::collection::{self, AddOptions, Units};
 use keycomp::search::Searcher;
 
@@ -49,7 +50,7 @@ pub struct Args {
     #[arg(long, default_value_t = 2013, value_name = "S")]
     pub shape_seed: u64,
     /// Results shown per query.
-    #[arg(short = 'k', long = "top", default_value_t = 3, value_parser = crate::output::at_least_one)]
+    #[arg(short = 'k', long = "top", default_value_t = 3, value_parser = crate::args::at_least_one)]
     pub k: usize,
     #[command(flatten)]
     pub detect: DetectArgs,

@@ -10,7 +10,8 @@ use keycomp_harris::HarrisParams;
 use keycomp_mesh::{Topology, read_mesh};
 use keycomp_render::{RenderParams, UpAxis, render};
 
-use crate::detect::{DetectArgs, component_colors};
+use crate::args::DetectArgs;
+use crate::colors::component_colors;
 use crate::{colors, output};
 
 pub const EXAMPLES: &str = "Examples:

@@ -9,10 +9,8 @@ use keycomp::matching::{MatchOptions, match_files};
 use keycomp_components::Detection;
 use keycomp_mesh::Mesh;
 
-pub use keycomp::{Analysed, analyse};
-
-use crate::detect::DetectArgs;
-use crate::index_cmd::UnitsArgs;
+use crate::args::DetectArgs;
+use crate::args::UnitsArgs;
 use crate::{colors, output};
 
 pub const EXAMPLES: &str = "Examples:
@@ -32,18 +30,18 @@ pub struct Args {
     #[command(flatten)]
     pub units: UnitsArgs,
     #[command(flatten)]
-    pub surface: crate::index_cmd::SurfaceArgs,
+    pub surface: crate::args::SurfaceArgs,
     /// Weight of the pose check, 0–1: above 0, pairs of matched parts whose straight-line
     /// distances disagree (another pose) lower the score. 0 (default): no pose check.
-    #[arg(long, value_name = "W", default_value_t = 0.0, value_parser = crate::output::unit_weight)]
+    #[arg(long, value_name = "W", default_value_t = 0.0, value_parser = crate::args::unit_weight)]
     pub pose: f64,
     /// Weight of geometric verification, 0–1, or auto (the default: 0.5 for a query with a
     /// boundary, a fragment or a scan, 1 in file units or on canonical surfaces; 0 for a closed
     /// shape): each shape's
     /// score is scaled by 1 − W·(1 − f), f the share of the query's surface that lies on the
     /// shape once aligned by the matched parts, so a fragment's exact source ranks first.
-    #[arg(long, value_name = "W|auto", default_value = "auto", value_parser = crate::output::auto_or_unit_weight)]
-    pub verify: crate::output::AutoWeight,
+    #[arg(long, value_name = "W|auto", default_value = "auto", value_parser = crate::args::auto_or_unit_weight)]
+    pub verify: crate::args::AutoWeight,
     /// Print JSON.
     #[arg(long)]
     pub json: bool,

@@ -1,6 +1,6 @@
 //! Wall time of detection and of description per mesh, median of `--runs` (default 3).
 //!
-//! `cargo run --release --example analysis_time -- [--runs N] [--layout-reach R|none] MESH...`
+//! `cargo bench -p keycomp --bench analysis_time -- [--runs N] [--layout-reach R|none] MESH...`
 //!
 //! Prints one line per mesh: vertices, parts, detection ms, description ms, and their ratio.
 
@@ -15,7 +15,11 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    // `cargo bench` passes `--bench` to a harness-free bench
+    let mut args: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| a != "--bench")
+        .collect();
     let mut runs = 3;
     if let Some(i) = args.iter().position(|a| a == "--runs") {
         runs = args.get(i + 1).ok_or("--runs needs a number")?.parse()?;

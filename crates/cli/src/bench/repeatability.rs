@@ -21,7 +21,7 @@ use keycomp_mser::Method;
 use keycomp_mser::MserParams;
 use serde::Serialize;
 
-use crate::keypoints::HarrisArgs;
+use crate::args::HarrisArgs;
 use crate::output;
 
 pub const EXAMPLES: &str = "Examples:
@@ -112,7 +112,7 @@ pub struct Args {
     #[arg(long, default_value_t = 0, value_name = "S")]
     pub smacof_seed: u64,
     #[command(flatten)]
-    pub speed: crate::detect::SpeedArgs,
+    pub speed: crate::args::SpeedArgs,
     /// Output folder.
     #[arg(long, default_value = "bench-out/repeatability", value_name = "DIR")]
     pub out: PathBuf,

@@ -5,21 +5,15 @@
 //! Subcommands are verbs; `--json` gives machine-readable output on stdout. Exit codes: 0 ok,
 //! 1 no result, 2 error (bad input, bad arguments). A closed stdout pipe exits 0.
 
+mod args;
 mod bench;
-mod bench_retrieval;
 mod colors;
-mod demo;
-mod detect;
-mod index_cmd;
-mod keypoints;
-mod match_cmd;
+mod commands;
 mod output;
-mod query;
-mod render_cmd;
-mod repeatability;
+mod progress;
 mod report;
-mod surface_cmd;
-mod transform;
+
+use commands::{demo, detect, index, keypoints, r#match, query, render, surface, transform};
 
 use std::process::ExitCode;
 
@@ -48,20 +42,20 @@ enum Command {
     Transform(transform::Args),
     /// Build and inspect the on-disk index of described shapes.
     #[command(subcommand)]
-    Index(index_cmd::IndexCommand),
+    Index(index::IndexCommand),
     /// Rank the indexed shapes against a query mesh (whole shape or fragment).
     #[command(after_help = query::EXAMPLES)]
     Query(query::Args),
     /// Render a shaded PNG of a mesh, with key-components, response or keypoints coloured.
-    #[command(after_help = render_cmd::EXAMPLES)]
-    Render(render_cmd::Args),
+    #[command(after_help = render::EXAMPLES)]
+    Render(render::Args),
     /// Write the canonical surface keycomp analyses instead of the file: one connected
     /// surface of a fixed density, from a mesh, a triangle soup, a range scan or a point cloud.
-    #[command(after_help = surface_cmd::EXAMPLES)]
-    Surface(surface_cmd::Args),
+    #[command(after_help = surface::EXAMPLES)]
+    Surface(surface::Args),
     /// Match two meshes part to part: key-components paired by descriptor, checked for layout and size.
-    #[command(name = "match", after_help = match_cmd::EXAMPLES)]
-    Match(match_cmd::Args),
+    #[command(name = "match", after_help = r#match::EXAMPLES)]
+    Match(r#match::Args),
     /// Benchmarks that produce the tables in BENCHMARKS.md.
     #[command(subcommand)]
     Bench(bench::BenchCommand),
@@ -95,11 +89,11 @@ fn main() -> ExitCode {
         Command::Detect(args) => detect::run(args),
         Command::Demo(args) => demo::run(args),
         Command::Transform(args) => transform::run(args),
-        Command::Match(args) => match_cmd::run(args),
-        Command::Index(cmd) => index_cmd::run(cmd),
+        Command::Match(args) => r#match::run(args),
+        Command::Index(cmd) => index::run(cmd),
         Command::Query(args) => query::run(args),
-        Command::Render(args) => render_cmd::run(args),
-        Command::Surface(args) => surface_cmd::run(args),
+        Command::Render(args) => render::run(args),
+        Command::Surface(args) => surface::run(args),
         Command::Bench(cmd) => bench::run(cmd),
     };
     match result {

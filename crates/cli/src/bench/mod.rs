@@ -10,7 +10,10 @@ use keycomp_components::detect;
 use keycomp_mesh::read_mesh;
 use serde::Serialize;
 
-use crate::detect::DetectArgs;
+pub mod repeatability;
+pub mod retrieval;
+
+use crate::args::DetectArgs;
 use crate::output;
 
 /// Benchmarks.
@@ -23,12 +26,12 @@ pub enum BenchCommand {
     Detect(DetectBenchArgs),
     /// Repeatability of key-components under SHREC'10-style transformations and real poses:
     /// the paper's Tables 1-3 (ours beside the paper's) and Figs. 7-9 (Section 4).
-    #[command(after_help = crate::repeatability::EXAMPLES)]
-    Repeatability(crate::repeatability::Args),
+    #[command(after_help = crate::bench::repeatability::EXAMPLES)]
+    Repeatability(crate::bench::repeatability::Args),
     /// Retrieval quality on a labelled collection: whole-shape and partial queries, PSB
     /// measures (NN, FT, ST, E, DCG, mAP, precision-recall), key-components against D2.
-    #[command(after_help = crate::bench_retrieval::EXAMPLES)]
-    Retrieval(crate::bench_retrieval::Args),
+    #[command(after_help = crate::bench::retrieval::EXAMPLES)]
+    Retrieval(crate::bench::retrieval::Args),
 }
 
 /// Arguments of `keycomp bench detect`.
@@ -40,7 +43,7 @@ pub struct DetectBenchArgs {
     #[command(flatten)]
     pub detect: DetectArgs,
     /// Runs per mesh; the table shows the median of each column.
-    #[arg(long, default_value_t = 3, value_parser = crate::output::at_least_one)]
+    #[arg(long, default_value_t = 3, value_parser = crate::args::at_least_one)]
     pub runs: usize,
     /// Worker threads (default: all cores).
     #[arg(long)]
@@ -84,8 +87,8 @@ fn median(mut v: Vec<f64>) -> f64 {
 pub fn run(cmd: BenchCommand) -> Result<ExitCode> {
     match cmd {
         BenchCommand::Detect(args) => detect_bench(args),
-        BenchCommand::Repeatability(args) => crate::repeatability::run_cmd(args),
-        BenchCommand::Retrieval(args) => crate::bench_retrieval::run(args),
+        BenchCommand::Repeatability(args) => crate::bench::repeatability::run_cmd(args),
+        BenchCommand::Retrieval(args) => crate::bench::retrieval::run(args),
     }
 }
 

@@ -9,6 +9,7 @@ use keycomp_harris::HarrisParams;
 use keycomp_mesh::{Topology, read_mesh};
 use serde::Serialize;
 
+use crate::args::HarrisArgs;
 use crate::{colors, output};
 
 pub const EXAMPLES: &str = "Examples:
@@ -29,38 +30,6 @@ pub struct Args {
     /// Write the mesh coloured by response (by rank) with keypoints in magenta, as binary PLY.
     #[arg(long, value_name = "OUT")]
     pub ply: Option<PathBuf>,
-}
-
-/// Harris 3D options shared by the commands that detect keypoints.
-#[derive(Debug, Clone, clap::Args)]
-pub struct HarrisArgs {
-    /// Keep this fraction of the vertices as keypoints, best first [default: 0.01].
-    #[arg(long, value_name = "F", group = "select")]
-    pub fraction: Option<f64>,
-    /// Keep this many keypoints, best first.
-    #[arg(long, value_name = "N", group = "select", value_parser = crate::output::at_least_one)]
-    pub count: Option<usize>,
-    /// Neighbourhood: this many whole rings around each vertex.
-    #[arg(long, value_name = "K", group = "nbhd")]
-    pub rings: Option<usize>,
-    /// Neighbourhood: adaptive rings reaching this fraction of the bounding-box diagonal
-    /// [default: 0.01].
-    #[arg(long, value_name = "D", group = "nbhd")]
-    pub radius: Option<f64>,
-}
-
-impl HarrisArgs {
-    /// The Harris parameters these options select, starting from `base`.
-    pub fn params(&self, base: HarrisParams) -> HarrisParams {
-        keycomp::options::DetectOptions {
-            fraction: self.fraction,
-            count: self.count,
-            rings: self.rings,
-            radius: self.radius,
-            ..Default::default()
-        }
-        .harris(base)
-    }
 }
 
 #[derive(Serialize)]

@@ -1,0 +1,291 @@
+//! Arguments shared by several commands (detection, Harris 3D, units, surface, weights) and
+//! the value parsers of clap options.
+
+use anyhow::{Result, bail};
+use keycomp::collection::Units;
+use keycomp::options::DetectOptions;
+use keycomp_components::{DetectParams, Preset};
+use keycomp_harris::HarrisParams;
+
+/// Detection options shared by the commands that detect key-components.
+#[derive(Debug, Clone, clap::Args)]
+pub struct DetectArgs {
+    /// Preset: robust (keycomp's: KC-1's clustering on Harris responses of a smoothed copy,
+    /// 2 % of the vertices as keypoints, spheres from the keypoints' spread; repeats best under
+    /// noise and poses, BENCHMARKS.md section 3), or one of the paper's (Section 4.3): kc1
+    /// (R 0.15, T 0.30, N 30), kc2 (N 20), kc3 (R 0.10, T 0.20, N 30). Default: robust for
+    /// `detect`, `render` and `bench detect`; kc1 for `index add`, `query` and `match`.
+    #[arg(long, value_parser = parse_preset)]
+    pub preset: Option<Preset>,
+    #[command(flatten)]
+    pub harris: HarrisArgs,
+    /// Intra-cluster distance R (geodesic, on the mesh scaled to unit area).
+    #[arg(long = "r", value_name = "R")]
+    pub r: Option<f64>,
+    /// Inter-cluster distance T (geodesic, on the mesh scaled to unit area).
+    #[arg(long = "t", value_name = "T")]
+    pub t: Option<f64>,
+    /// Fewest keypoints in a cluster, N.
+    #[arg(long = "n", value_name = "N", value_parser = crate::args::at_least_one)]
+    pub n: Option<usize>,
+    /// Scale N down for shapes with fewer than K keypoints: N·keypoints/K, at least 5 (not in
+    /// the paper: lets meshes under ~20k vertices have key-components). 0 = the paper's fixed
+    /// N. Default: 0 for `detect`, 250 for `index add`, `query` and `match`.
+    #[arg(long = "n-reference", value_name = "K")]
+    pub n_reference: Option<usize>,
+    /// Factor σ on the enclosing sphere's radius that bounds region growing [default: 1.5].
+    #[arg(long, value_name = "S")]
+    pub sigma: Option<f64>,
+    /// Seed of SMACOF's random starts [default: 0].
+    #[arg(long, value_name = "S")]
+    pub seed: Option<u64>,
+    #[command(flatten)]
+    pub speed: SpeedArgs,
+}
+
+/// How the geodesic distances and the embedding are computed (deviations from the paper made
+/// for speed, and their off switches): shared by every command that detects key-components
+/// and by `bench repeatability`.
+#[derive(Debug, Clone, Default, clap::Args)]
+pub struct SpeedArgs {
+    /// Run the fast-marching fronts on a proxy of at most N vertices (the mesh simplified by
+    /// half-edge collapse, keypoints kept as vertices) when the mesh has more; 0 = the full
+    /// mesh, as in the paper. The default proxy is a deviation from the paper, made for speed
+    /// (several times fewer CPU cycles on 50–60k vertices; repeatability and retrieval within
+    /// noise: BENCHMARKS.md section 2) [default: 10000]
+    #[arg(long, value_name = "N")]
+    pub geodesic_vertices: Option<usize>,
+    /// Fast marching splits obtuse corners of at least this angle, in degrees (90 = every
+    /// obtuse corner, 180 = none) [default: 90].
+    #[arg(long, value_name = "DEG")]
+    pub split_angle: Option<f64>,
+    /// Landmark fronts: only this many keypoints (spread by farthest-point sampling) run a
+    /// full fast-marching front, the others a short one, and the pairs no front measured get
+    /// the shortest path through a landmark; 0 = a full front from every keypoint, as in the
+    /// paper. A deviation from the paper, made for speed (with the classical start below,
+    /// 0.37–0.41× the time of detection on 50–60k vertices, repeatability within noise:
+    /// BENCHMARKS.md section 2) [default: 100].
+    #[arg(long, value_name = "L")]
+    pub landmarks: Option<usize>,
+    /// Where the non-landmarks' short fronts stop, in covering radii (the largest distance
+    /// from a keypoint to its nearest landmark) [default: 2].
+    #[arg(long, value_name = "F")]
+    pub landmark_radius: Option<f64>,
+    /// The proxy's simplification runs in parallel in cells of at least this many vertices
+    /// (pieces of the mesh's connectivity, a power of two of them, at most 64), then once more
+    /// from the seams; 0 = one pass over the whole mesh. The cells depend on the mesh only, so
+    /// the result is the same on any number of threads [default: 10000].
+    #[arg(long, value_name = "N")]
+    pub proxy_cell_vertices: Option<usize>,
+    /// SMACOF's starts (the paper's method: 4 random ones) [default: 2].
+    #[arg(long, value_name = "N", value_parser = crate::args::at_least_one)]
+    pub smacof_starts: Option<usize>,
+    /// SMACOF's first start: `random`, or `classical` (Torgerson scaling of the distances; the
+    /// other starts stay random) [default: classical].
+    #[arg(long, value_name = "INIT", value_parser = parse_init)]
+    pub smacof_init: Option<bool>,
+}
+
+impl SpeedArgs {
+    /// These options as [`DetectOptions`] (every other option unset).
+    pub fn options(&self) -> DetectOptions {
+        DetectOptions {
+            geodesic_vertices: self.geodesic_vertices,
+            split_angle: self.split_angle,
+            landmarks: self.landmarks,
+            landmark_radius: self.landmark_radius,
+            proxy_cell_vertices: self.proxy_cell_vertices,
+            smacof_starts: self.smacof_starts,
+            classical_start: self.smacof_init,
+            ..DetectOptions::default()
+        }
+    }
+}
+
+fn parse_init(s: &str) -> Result<bool, String> {
+    match s {
+        "classical" => Ok(true),
+        "random" => Ok(false),
+        _ => Err(format!("unknown SMACOF start '{s}' (classical or random)")),
+    }
+}
+
+fn parse_preset(s: &str) -> Result<Preset, String> {
+    s.parse::<Preset>()
+        .map_err(|_| format!("unknown preset '{s}' (robust, kc1, kc2 or kc3)"))
+}
+
+impl DetectArgs {
+    /// Whether these options give the same retrieval parameters as giving none at all.
+    pub fn is_default(&self) -> bool {
+        #[derive(clap::Parser)]
+        struct Bare {
+            #[command(flatten)]
+            detect: DetectArgs,
+        }
+        <Bare as clap::Parser>::try_parse_from(["keycomp"])
+            .is_ok_and(|b| b.detect.retrieval_params() == self.retrieval_params())
+    }
+
+    /// The preset of the detection commands (`detect`, `render`, `bench detect`): the one
+    /// given, else the robust preset.
+    pub fn detection_preset(&self) -> Preset {
+        self.preset.unwrap_or(Preset::Robust)
+    }
+
+    /// The preset of the retrieval commands: the one given, else KC-1.
+    pub fn retrieval_preset(&self) -> Preset {
+        self.preset.unwrap_or(Preset::Kc1)
+    }
+
+    /// The options as the library takes them, with the retrieval commands' preset.
+    pub fn options(&self) -> DetectOptions {
+        self.options_with(self.retrieval_preset())
+    }
+
+    /// The options as the library takes them, with `preset`.
+    fn options_with(&self, preset: Preset) -> DetectOptions {
+        DetectOptions {
+            preset,
+            fraction: self.harris.fraction,
+            count: self.harris.count,
+            rings: self.harris.rings,
+            radius: self.harris.radius,
+            r: self.r,
+            t: self.t,
+            n: self.n,
+            n_reference: self.n_reference,
+            sigma: self.sigma,
+            seed: self.seed,
+            ..self.speed.options()
+        }
+    }
+
+    /// The parameters of the retrieval commands ([`DetectOptions::retrieval_params`]).
+    pub fn retrieval_params(&self) -> DetectParams {
+        self.options().retrieval_params()
+    }
+
+    /// The retrieval parameters when the options ask for other than the default ones, else
+    /// `None` (an index's own parameters then apply).
+    pub fn explicit(&self) -> Option<DetectParams> {
+        (!self.is_default()).then(|| self.retrieval_params())
+    }
+
+    /// The parameters of the detection commands: their preset
+    /// ([`DetectArgs::detection_preset`]), then each explicit option on top
+    /// ([`DetectOptions::params`]).
+    pub fn params(&self) -> DetectParams {
+        self.options_with(self.detection_preset()).params()
+    }
+}
+
+/// Harris 3D options shared by the commands that detect keypoints.
+#[derive(Debug, Clone, clap::Args)]
+pub struct HarrisArgs {
+    /// Keep this fraction of the vertices as keypoints, best first [default: 0.01].
+    #[arg(long, value_name = "F", group = "select")]
+    pub fraction: Option<f64>,
+    /// Keep this many keypoints, best first.
+    #[arg(long, value_name = "N", group = "select", value_parser = crate::args::at_least_one)]
+    pub count: Option<usize>,
+    /// Neighbourhood: this many whole rings around each vertex.
+    #[arg(long, value_name = "K", group = "nbhd")]
+    pub rings: Option<usize>,
+    /// Neighbourhood: adaptive rings reaching this fraction of the bounding-box diagonal
+    /// [default: 0.01].
+    #[arg(long, value_name = "D", group = "nbhd")]
+    pub radius: Option<f64>,
+}
+
+impl HarrisArgs {
+    /// The Harris parameters these options select, starting from `base`.
+    pub fn params(&self, base: HarrisParams) -> HarrisParams {
+        keycomp::options::DetectOptions {
+            fraction: self.fraction,
+            count: self.count,
+            rings: self.rings,
+            radius: self.radius,
+            ..Default::default()
+        }
+        .harris(base)
+    }
+}
+
+/// The length unit options of the commands that describe shapes (`index add`, `match`).
+#[derive(Debug, Clone, clap::Args)]
+pub struct UnitsArgs {
+    /// Length unit of the description: scale-free (every mesh scaled to unit area on its own,
+    /// the default) or file (the files' own units, for a collection and queries in the same
+    /// real units, e.g. CAD in mm or calibrated scans: a fragment keeps its source's scale).
+    /// Recorded in the index's profile; queries use the index's.
+    #[arg(long, value_name = "MODE", value_parser = ["scale-free", "file"])]
+    pub units: Option<String>,
+    /// With --units file: the length unit, in file units [default: the square root of the
+    /// median surface area of the shapes added (`index add` into a new index) or of the second
+    /// shape (`match`)].
+    #[arg(long, value_name = "L", requires = "units")]
+    pub unit_length: Option<f64>,
+}
+
+impl UnitsArgs {
+    /// The units asked for (`None`: none given).
+    pub fn units(&self) -> Result<Option<Units>> {
+        Ok(match (self.units.as_deref(), self.unit_length) {
+            (None, None) => None,
+            (Some("file"), length) => Some(Units::File { length }),
+            (_, Some(_)) => bail!("--unit-length needs --units file"),
+            (_, None) => Some(Units::ScaleFree),
+        })
+    }
+}
+
+/// What the commands that describe shapes (`index add`, `match`) analyse.
+#[derive(Debug, Clone, clap::Args)]
+pub struct SurfaceArgs {
+    /// The surface analysed: as-read (the mesh as the file gives it, the default for a new
+    /// index) or canonical (every input remade as one connected surface of about 10,000
+    /// vertices, the same whatever its tessellation: CAD soups, scans, meshes at other
+    /// resolutions). Point clouds are always analysed on their canonical surface. Recorded in
+    /// the index's profile; queries use the index's.
+    #[arg(long, value_name = "MODE", value_parser = ["as-read", "canonical"])]
+    pub surface: Option<String>,
+}
+
+impl SurfaceArgs {
+    /// `Some(true)`: canonical asked for; `Some(false)`: as read; `None`: not given.
+    pub fn canonical(&self) -> Option<bool> {
+        self.surface.as_deref().map(|s| s == "canonical")
+    }
+}
+
+/// Parses a count that must be at least 1 (clap `value_parser` of `-k`, `--runs`, …).
+pub fn at_least_one(s: &str) -> Result<usize, String> {
+    match s.trim().parse::<usize>() {
+        Ok(n) if n >= 1 => Ok(n),
+        _ => Err(format!("'{s}': expected a whole number of at least 1")),
+    }
+}
+
+/// Parses a weight in [0, 1] (a clap value parser).
+pub fn unit_weight(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(w) if (0.0..=1.0).contains(&w) => Ok(w),
+        _ => Err(format!("'{s}': expected a number between 0 and 1")),
+    }
+}
+
+/// A weight between 0 and 1, or `auto` (`None`): the value of `--verify`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AutoWeight(pub Option<f64>);
+
+/// Parses `auto` or a weight between 0 and 1 (clap's value parser of `--verify`).
+pub fn auto_or_unit_weight(s: &str) -> Result<AutoWeight, String> {
+    if s.trim().eq_ignore_ascii_case("auto") {
+        Ok(AutoWeight(None))
+    } else {
+        unit_weight(s)
+            .map(|w| AutoWeight(Some(w)))
+            .map_err(|_| format!("'{s}': expected 'auto' or a number between 0 and 1"))
+    }
+}
