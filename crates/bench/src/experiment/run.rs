@@ -1,0 +1,211 @@
+//! The whole run: load the null shapes, list every shape to evaluate, run them (in parallel
+//! when asked), score each transformed shape against its null shape and assemble the
+//! [`Report`].
+
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::Instant;
+
+use keycomp_mesh::geometry::vertex_areas;
+use keycomp_mesh::{Topology, VertexId, read_mesh};
+use rayon::prelude::*;
+
+use super::config::{Config, referenced};
+use super::discover::NullSpec;
+use super::report::{PresetScores, REPORT_FORMAT, Report, RunStats, ShapeReport, Skipped};
+use super::score::{preset_report, thresholds};
+use super::shape::{CacheUse, Job, LoadedNull, Outcome, Source};
+use crate::BenchError;
+use crate::evaluate::best_overlaps;
+use crate::transform::MAX_STRENGTH;
+
+/// Progress of a run, reported after each shape.
+#[derive(Debug, Clone, Copy)]
+pub struct Progress<'a> {
+    /// Shapes finished.
+    pub done: usize,
+    /// Shapes in the run.
+    pub total: usize,
+    /// The shape just finished (`cat0 holes 3`).
+    pub shape: &'a str,
+}
+
+/// Runs the experiment on `nulls` (see *Run* in the [module docs](super)); `progress` is called after
+/// every shape, from worker threads.
+///
+/// Errors: a null shape's file cannot be read, or a strength is out of range. Failures of
+/// single shapes (a transformation that does not apply, a detection error) are reported in
+/// [`Report::skipped`] instead.
+pub fn run(
+    config: &Config,
+    nulls: &[NullSpec],
+    progress: &(dyn Fn(Progress<'_>) + Sync),
+) -> Result<(Report, RunStats), BenchError> {
+    let t0 = Instant::now();
+    if let Some(&strength) = config
+        .strengths
+        .iter()
+        .find(|s| !(1..=MAX_STRENGTH).contains(*s))
+    {
+        return Err(BenchError::InvalidStrength { strength });
+    }
+    let loaded: Vec<LoadedNull> = nulls
+        .iter()
+        .map(|spec| -> Result<LoadedNull, BenchError> {
+            let mesh = read_mesh(&spec.path)?.mesh;
+            let topo = Topology::new(&mesh);
+            let areas = vertex_areas(&mesh);
+            let referenced = referenced(&mesh);
+            Ok(LoadedNull {
+                spec: spec.clone(),
+                mesh,
+                topo,
+                areas,
+                referenced,
+            })
+        })
+        .collect::<Result<_, _>>()?;
+
+    let mut jobs = Vec::new();
+    for (i, null) in loaded.iter().enumerate() {
+        jobs.push(Job {
+            null: i,
+            source: Source::Null,
+        });
+        if config.isometry {
+            for pose in &null.spec.poses {
+                if config.strengths.contains(&pose.strength) {
+                    jobs.push(Job {
+                        null: i,
+                        source: Source::Pose(pose.strength, pose.path.clone()),
+                    });
+                }
+            }
+        }
+        for &kind in &config.kinds {
+            for &s in &config.strengths {
+                jobs.push(Job {
+                    null: i,
+                    source: Source::Generated(kind, s),
+                });
+            }
+        }
+    }
+
+    let done = AtomicUsize::new(0);
+    let total = jobs.len();
+    let work = |job: &Job| {
+        let out = config.run_job(job, &loaded);
+        let name = match job.source {
+            Source::Null => loaded[job.null].spec.name.clone(),
+            _ => format!(
+                "{} {} {}",
+                loaded[job.null].spec.name,
+                job.kind(),
+                job.strength()
+            ),
+        };
+        progress(Progress {
+            done: done.fetch_add(1, Ordering::Relaxed) + 1,
+            total,
+            shape: &name,
+        });
+        out
+    };
+    let outcomes: Vec<Result<Outcome, String>> = if config.parallel_shapes {
+        jobs.par_iter().map(work).collect()
+    } else {
+        jobs.iter().map(work).collect()
+    };
+
+    // the null shapes' components, per null and preset
+    let mut null_components: Vec<Option<&Vec<Vec<Vec<VertexId>>>>> = vec![None; loaded.len()];
+    for (job, out) in jobs.iter().zip(&outcomes) {
+        if let (Source::Null, Ok(o)) = (&job.source, out) {
+            null_components[job.null] = Some(&o.components);
+        }
+    }
+    let mut stats = RunStats::default();
+    let mut shapes = Vec::new();
+    let mut skipped = Vec::new();
+    for (job, out) in jobs.iter().zip(&outcomes) {
+        let null = &loaded[job.null];
+        let skip = |reason: String| Skipped {
+            null: null.spec.name.clone(),
+            kind: job.kind().to_owned(),
+            strength: job.strength(),
+            reason,
+        };
+        let o = match (out, null_components[job.null]) {
+            (Err(reason), _) => {
+                skipped.push(skip(reason.clone()));
+                continue;
+            }
+            (Ok(_), None) => {
+                skipped.push(skip("the null shape itself could not be evaluated".into()));
+                continue;
+            }
+            (Ok(o), Some(_)) => o,
+        };
+        match o.cache {
+            CacheUse::Hit => stats.cache_hits += 1,
+            CacheUse::Corrupt => {
+                stats.corrupt_entries += 1;
+                stats.computed += 1;
+            }
+            CacheUse::Miss | CacheUse::Off => stats.computed += 1,
+        }
+        stats.cache_write_errors.extend(o.cache_error.clone());
+        stats.shape_seconds += o.seconds;
+        let presets = o
+            .components
+            .iter()
+            .enumerate()
+            .map(|(p, comps)| PresetScores {
+                components: comps.len(),
+                best_overlaps: match (&job.source, null_components[job.null]) {
+                    (Source::Null, _) | (_, None) => Vec::new(),
+                    (_, Some(nc)) => best_overlaps(&nc[p], comps, &null.areas),
+                },
+            })
+            .collect();
+        shapes.push(ShapeReport {
+            null: null.spec.name.clone(),
+            kind: job.kind().to_owned(),
+            strength: job.strength(),
+            source: match &job.source {
+                Source::Pose(_, p) => p.display().to_string(),
+                _ => null.spec.path.display().to_string(),
+            },
+            vertices: o.vertices,
+            faces: o.faces,
+            keypoints: o.keypoints,
+            presets,
+        });
+    }
+
+    let thresholds = thresholds();
+    let presets = config
+        .presets
+        .iter()
+        .enumerate()
+        .map(|(p, spec)| preset_report(spec, p, &shapes, &thresholds))
+        .collect();
+    stats.seconds = t0.elapsed().as_secs_f64();
+    let report = Report {
+        format: REPORT_FORMAT,
+        seed: config.seed,
+        budget: config.budget.describe(),
+        budget_rule: config.budget,
+        harris: config.harris,
+        smacof: config.smacof.clone(),
+        geodesic: config.geodesic,
+        mser: config.mser,
+        surface: config.surface,
+        thresholds,
+        nulls: nulls.to_vec(),
+        presets,
+        shapes,
+        skipped,
+    };
+    Ok((report, stats))
+}

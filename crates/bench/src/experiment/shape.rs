@@ -1,0 +1,260 @@
+//! One shape of the run: make it (the null shape, a generated transformation or a real pose),
+//! detect on it (stage 1 from the cache when present, stage 2 per preset, or the MSER
+//! methods), and carry its components to the null shape's vertices.
+
+use std::borrow::Cow;
+use std::path::PathBuf;
+use std::time::Instant;
+
+use keycomp_harris::HarrisParams;
+use keycomp_mesh::geometry::vertex_areas;
+use keycomp_mesh::{Mesh, Topology, VertexId, read_mesh};
+use keycomp_mser::{Method, covering_set, detect as detect_mser};
+use keycomp_surface::{Input, canonical};
+use serde::Serialize;
+
+use super::config::Config;
+use super::discover::{ISOMETRY, NullSpec};
+use crate::cache::{Lookup, MserEntry, cache_key, mser_cache_key};
+use crate::evaluate::Pullback;
+use crate::staged::{Embedded, Extractor, embed};
+use crate::transform::{Kind, transform};
+
+/// Where a shape came from.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) enum Source {
+    Null,
+    Generated(Kind, u8),
+    Pose(u8, PathBuf),
+}
+
+pub(super) struct Job {
+    pub(super) null: usize,
+    pub(super) source: Source,
+}
+
+impl Job {
+    pub(super) fn kind(&self) -> &str {
+        match &self.source {
+            Source::Null => "null",
+            Source::Generated(k, _) => k.name(),
+            Source::Pose(..) => ISOMETRY,
+        }
+    }
+    pub(super) fn strength(&self) -> u8 {
+        match &self.source {
+            Source::Null => 0,
+            Source::Generated(_, s) | Source::Pose(s, _) => *s,
+        }
+    }
+}
+
+pub(super) struct LoadedNull {
+    pub(super) spec: NullSpec,
+    pub(super) mesh: Mesh,
+    pub(super) topo: Topology,
+    pub(super) areas: Vec<f64>,
+    pub(super) referenced: usize,
+}
+
+/// How a shape's stage-1 result was obtained.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum CacheUse {
+    /// Read from the cache.
+    Hit,
+    /// Computed (and stored).
+    Miss,
+    /// Computed because the cached entry was corrupt (and overwritten).
+    Corrupt,
+    /// Computed, no cache in use.
+    Off,
+}
+
+impl CacheUse {
+    /// The less favourable of two uses (a shape with two cached stages is a hit only if both
+    /// were): Corrupt, then Miss, then Off, then Hit.
+    fn worse(self, other: CacheUse) -> CacheUse {
+        let rank = |c: CacheUse| match c {
+            CacheUse::Hit => 0,
+            CacheUse::Off => 1,
+            CacheUse::Miss => 2,
+            CacheUse::Corrupt => 3,
+        };
+        if rank(other) > rank(self) {
+            other
+        } else {
+            self
+        }
+    }
+}
+
+pub(super) struct Outcome {
+    pub(super) vertices: usize,
+    pub(super) faces: usize,
+    pub(super) keypoints: usize,
+    pub(super) cache: CacheUse,
+    pub(super) cache_error: Option<String>,
+    pub(super) seconds: f64,
+    /// Per preset: the components as null-vertex sets (carried, for transformed shapes).
+    pub(super) components: Vec<Vec<Vec<VertexId>>>,
+}
+
+impl Config {
+    fn stage1(
+        &self,
+        mesh: &Mesh,
+        null: &LoadedNull,
+    ) -> Result<(Embedded, CacheUse, Option<String>), String> {
+        let harris = HarrisParams {
+            selection: self.selection_for(mesh, null.referenced),
+            ..self.harris
+        };
+        let compute = || {
+            embed(mesh, &harris, &self.smacof, &self.geodesic)
+                .map_err(|e| format!("detection failed: {e}"))
+        };
+        let Some(cache) = &self.cache else {
+            return Ok((compute()?, CacheUse::Off, None));
+        };
+        let key = cache_key(mesh, &harris, &self.smacof, &self.geodesic);
+        let state = match cache.load(key, mesh.num_vertices()) {
+            Lookup::Hit(e) => return Ok((e, CacheUse::Hit, None)),
+            Lookup::Miss => CacheUse::Miss,
+            Lookup::Corrupt => CacheUse::Corrupt,
+        };
+        let e = compute()?;
+        let err = cache.store(key, &e).err().map(|e| e.to_string());
+        Ok((e, state, err))
+    }
+
+    /// The MSER detection of `mesh` (HKS keypoints and maximally stable components), from the
+    /// cache when present.
+    fn mser_stage(&self, mesh: &Mesh) -> Result<(MserEntry, CacheUse, Option<String>), String> {
+        let compute = || {
+            detect_mser(mesh, &self.mser)
+                .map(|d| MserEntry {
+                    keypoints: d.keypoints,
+                    components: d.components,
+                })
+                .map_err(|e| format!("MSER detection failed: {e}"))
+        };
+        let Some(cache) = &self.cache else {
+            return Ok((compute()?, CacheUse::Off, None));
+        };
+        let key = mser_cache_key(mesh, &self.mser);
+        let state = match cache.load_mser(key, mesh.num_vertices()) {
+            Lookup::Hit(e) => return Ok((e, CacheUse::Hit, None)),
+            Lookup::Miss => CacheUse::Miss,
+            Lookup::Corrupt => CacheUse::Corrupt,
+        };
+        let e = compute()?;
+        let err = cache.store_mser(key, &e).err().map(|e| e.to_string());
+        Ok((e, state, err))
+    }
+
+    pub(super) fn run_job(&self, job: &Job, nulls: &[LoadedNull]) -> Result<Outcome, String> {
+        let t0 = Instant::now();
+        let null = &nulls[job.null];
+        let (mesh, map): (Cow<'_, Mesh>, Option<Vec<Option<VertexId>>>) = match &job.source {
+            Source::Null => (Cow::Borrowed(&null.mesh), None),
+            Source::Generated(kind, s) => {
+                let t = transform(&null.mesh, *kind, *s, self.seed).map_err(|e| e.to_string())?;
+                (Cow::Owned(t.mesh), Some(t.map))
+            }
+            Source::Pose(_, path) => {
+                let m = read_mesh(path).map_err(|e| e.to_string())?.mesh;
+                if m.num_vertices() != null.mesh.num_vertices() {
+                    return Err(format!(
+                        "{}: {} vertices but the null shape has {}: not the same vertex \
+                         numbering, so no ground truth",
+                        path.display(),
+                        m.num_vertices(),
+                        null.mesh.num_vertices()
+                    ));
+                }
+                let identity = (0..m.num_vertices() as VertexId).map(Some).collect();
+                (Cow::Owned(m), Some(identity))
+            }
+        };
+        let wants = |kc: bool| self.presets.iter().any(|p| (p.method == Method::Kc) == kc);
+        // key-components on the canonical surface when asked, carried back to `mesh`
+        let surface = match &self.surface {
+            Some(params) if wants(true) => Some(
+                canonical(Input::Mesh(&mesh), params)
+                    .map_err(|e| format!("canonical surface: {e}"))?
+                    .mesh,
+            ),
+            _ => None,
+        };
+        // canonical vertex -> the mesh's vertices nearest it (Pullback::nearest)
+        let carrier = surface.as_ref().map(|s| Pullback::nearest(&mesh, s));
+        let detected: &Mesh = surface.as_ref().unwrap_or(&mesh);
+        let (embedded, mut cache, mut cache_error) = if wants(true) {
+            let (e, c, err) = self.stage1(detected, null)?;
+            (Some(e), c, err)
+        } else {
+            (None, CacheUse::Hit, None)
+        };
+        let mser = if wants(false) {
+            let (m, c, err) = self.mser_stage(&mesh)?;
+            cache = cache.worse(c);
+            cache_error = cache_error.or(err);
+            Some(m)
+        } else {
+            None
+        };
+        let extractor = embedded.as_ref().map(|_| Extractor::new(detected));
+        let vertex_area = mser.as_ref().map(|_| vertex_areas(&mesh));
+        let mut components = Vec::with_capacity(self.presets.len());
+        for p in &self.presets {
+            let comps = match (p.method, &embedded, &extractor, &mser, &vertex_area) {
+                (Method::Kc, Some(e), Some(x), _, _) => {
+                    let found = x
+                        .components(e, &p.cluster, p.sigma, p.sphere)
+                        .map_err(|e| format!("{}: component extraction failed: {e}", p.name))?;
+                    match &carrier {
+                        Some(carrier) => found.iter().map(|c| carrier.carry(c)).collect(),
+                        None => found,
+                    }
+                }
+                (Method::Mser, _, _, Some(m), _) => m.components.clone(),
+                (Method::MserKc, _, _, Some(m), Some(va)) => {
+                    let areas: Vec<f64> = m
+                        .components
+                        .iter()
+                        .map(|c| c.iter().map(|&v| va[v as usize]).sum())
+                        .collect();
+                    let (chosen, _) = covering_set(&m.components, &areas, &m.keypoints)
+                        .map_err(|e| format!("{}: {e}", p.name))?;
+                    chosen.iter().map(|&i| m.components[i].clone()).collect()
+                }
+                _ => return Err(format!("{}: internal error: stage missing", p.name)),
+            };
+            components.push(comps);
+        }
+        let keypoints = match (&embedded, &mser) {
+            (Some(e), _) => e.keypoints.len(),
+            (None, Some(m)) => m.keypoints.len(),
+            (None, None) => 0,
+        };
+        if let Some(map) = map {
+            let pullback =
+                Pullback::new(&null.mesh, &null.topo, &map).map_err(|e| e.to_string())?;
+            for per_preset in &mut components {
+                for c in per_preset.iter_mut() {
+                    *c = pullback.carry(c);
+                }
+            }
+        }
+        Ok(Outcome {
+            vertices: mesh.num_vertices(),
+            faces: mesh.num_faces(),
+            keypoints,
+            cache,
+            cache_error,
+            seconds: t0.elapsed().as_secs_f64(),
+            components,
+        })
+    }
+}
