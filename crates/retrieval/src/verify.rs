@@ -5,15 +5,15 @@
 //!    [`PAIRS_PER_PART`] nearest target parts by descriptor (a scan's parts are cropped, so its
 //!    true partner is often not the nearest one). Triples of the nearest pairs
 //!    ([`crate::MatchParams::verify_search`]: [`VerifySearch::AS_READ`], or
-//!    [`VerifySearch::RESAMPLED`] on canonical surfaces) whose straight-line distances agree (RANSAC: M. A. Fischler,
-//!    R. C. Bolles, "Random sample consensus", Communications of the ACM 24(6), 1981) each give
-//!    the least-squares similarity transform (rotation, translation and, unless both shapes
-//!    are in file units, a uniform scale; S. Umeyama, "Least-squares estimation of
-//!    transformation parameters between two point patterns", IEEE TPAMI 13(4), 1991), up to the
-//!    search's cap. A hypothesis counts
-//!    the places whose centres it brings within [`CENTRE_TOLERANCE`] tolerances (parts of
-//!    several levels grown from one keypoint share a centre and count once); the
-//!    [`CANDIDATES`] with most (and different inliers) are fitted again on their inliers.
+//!    [`VerifySearch::RESAMPLED`] on canonical surfaces) whose straight-line distances agree
+//!    (RANSAC: M. A. Fischler, R. C. Bolles, "Random sample consensus", Communications of the ACM
+//!    24(6), 1981) each give the least-squares similarity transform (rotation, translation and,
+//!    unless both shapes are in file units, a uniform scale; S. Umeyama, "Least-squares estimation
+//!    of transformation parameters between two point patterns", IEEE TPAMI 13(4), 1991), up to the
+//!    search's cap. A hypothesis counts the places whose centres it brings within
+//!    [`CENTRE_TOLERANCE`] tolerances (parts of several levels grown from one keypoint share a
+//!    centre and count once); the [`CANDIDATES`] with most (and different inliers) are fitted again
+//!    on their inliers.
 //! 2. **Decided on the surfaces, not on the centres.** The count of agreeing places does not
 //!    pick the right alignment: a left–right flip of a symmetric animal often has more. Each
 //!    candidate gets [`SCREEN_ROUNDS`] rounds of ICP (P. J. Besl, N. D. McKay, "A method for
@@ -30,17 +30,17 @@
 //!    The exact source of a fragment scores highest, the same parts in another pose less (what
 //!    moved is off the surface), another shape less still.
 //!
-//! Cost: at most [`VerifySearch::hypotheses`] transforms checked against the pairs, [`CANDIDATES`] ×
-//! [`SCREEN_ROUNDS`] rounds on a thinned sample and [`REFINED`] × [`ICP_ITERATIONS`] rounds of
-//! KD-tree look-ups on the whole one: a few milliseconds per target, which is why a query
-//! verifies only its best candidates (`query::VERIFIED_CANDIDATES`).
+//! Cost: at most [`VerifySearch::hypotheses`] transforms checked against the pairs, [`CANDIDATES`]
+//! × [`SCREEN_ROUNDS`] rounds on a thinned sample and [`REFINED`] × [`ICP_ITERATIONS`] rounds of
+//! KD-tree look-ups on the whole one: a few milliseconds per target, which is why a query verifies
+//! only its best candidates (`rank::VERIFIED_CANDIDATES`).
 
 use kiddo::SquaredEuclidean;
 use kiddo::immutable::float::kdtree::ImmutableKdTree;
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
-use crate::ShapeView;
+use crate::view::ShapeView;
 
 /// Tentative pairs per query part: its nearest target parts in descriptor space.
 pub const PAIRS_PER_PART: usize = 6;

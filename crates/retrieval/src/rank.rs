@@ -1,11 +1,11 @@
-//! Ranking the shapes of an index against a described query, in two stages: candidate shapes
-//! from the index's nearest-neighbour search over part descriptors (exact, or approximate on
-//! large indexes: `keycomp_index::SearchMode`), each voted for by the query parts it has near
-//! neighbours for; then [`crate::match_weighted`] (the part-to-part assignment and the layout
-//! check) for the [`MATCHED_CANDIDATES`] best-voted, pruned by two bounds on their score when
-//! only the top `k` are asked for (their descriptors' distances, then their assignment); with verification on ([`MatchParams::verify_weight`]), the
-//! [`VERIFIED_CANDIDATES`] best of those are matched again with it ([`crate::verify`]) and
-//! the ranking redone.
+//! Ranking the shapes of an index against a described query, in two stages: candidate shapes from
+//! the index's nearest-neighbour search over part descriptors (exact, or approximate on large
+//! indexes: `keycomp_index::SearchMode`), each voted for by the query parts it has near neighbours
+//! for; then [`crate::match_weighted`] (the part-to-part assignment and the layout check) for the
+//! [`MATCHED_CANDIDATES`] best-voted, pruned by two bounds on their score when only the top `k` are
+//! asked for (their descriptors' distances, then their assignment); with verification on
+//! ([`MatchParams::verify_weight`]), the [`VERIFIED_CANDIDATES`] best of those are matched again
+//! with it ([`crate::verify`]) and the ranking redone.
 //!
 //! Cost: m searches in parallel (m query parts, [`CANDIDATES_PER_COMPONENT`] neighbours each),
 //! the votes in O(m · [`CANDIDATES_PER_COMPONENT`]), the first bounds in O(m²) per candidate
@@ -21,7 +21,11 @@ use std::path::PathBuf;
 use keycomp_describe::{DIM, Descriptor};
 use keycomp_index::{IndexError, IndexReader, ShapeId};
 
-use crate::{MatchParams, ShapeMatch, ShapeView};
+use crate::assign::{ComponentMatch, distances, pair};
+use crate::checks::{Assigned, check};
+use crate::params::{MatchParams, unit_weight};
+use crate::score::{ShapeMatch, can_verify, finish, pairs_score, score_bound};
+use crate::view::ShapeView;
 
 /// Nearest components fetched from the KD-tree per query component.
 pub const CANDIDATES_PER_COMPONENT: usize = 64;
@@ -189,12 +193,13 @@ pub fn rank_hypotheses(
 /// candidate were matched.
 ///
 /// Best-first branch and bound over two upper bounds of a candidate's score: the matrix of
-/// descriptor distances gives one ([`crate::score_bound`]: every query part at its best
-/// similarity), the assignment a tighter one ([`crate::pairs_score`] of every assigned pair). The open candidate of highest bound is taken next (a batch of a few at a time, in
-/// parallel): assigned if only its first bound is known, then put back with the second;
-/// otherwise its record is read and its match finished (the layout check). It stops when the
-/// highest open bound is below the `k`-th best score found, so the layout check, the costliest
-/// step, runs only for candidates whose assignment can still enter the top `k`.
+/// descriptor distances gives one ([`score_bound`]: every query part at its best similarity), the
+/// assignment a tighter one ([`pairs_score`] of every assigned pair). The open candidate of highest
+/// bound is taken next (a batch of a few at a time, in parallel): assigned if only its first bound
+/// is known, then put back with the second; otherwise its record is read and its match finished
+/// (the layout check). It stops when the highest open bound is below the `k`-th best score found,
+/// so the layout check, the costliest step, runs only for candidates whose assignment can still
+/// enter the top `k`.
 fn match_candidates(
     reader: &IndexReader<DIM>,
     query: ShapeView,
@@ -226,8 +231,8 @@ fn match_candidates(
             let Some(descriptors) = reader.descriptors(id)? else {
                 return Ok(None);
             };
-            let d = crate::distances(query.descriptors, &descriptors);
-            let bound = crate::score_bound(mq, descriptors.len(), &d, params, weights);
+            let d = distances(query.descriptors, &descriptors);
+            let bound = score_bound(mq, descriptors.len(), &d, params, weights);
             Ok(Some(Candidate {
                 id,
                 descriptors,
@@ -247,14 +252,14 @@ fn match_candidates(
         }
     }
     /// A candidate's match, and its assignment while the shortlist may still verify it.
-    type Scored = (ShapeMatch, Option<crate::Assigned>);
+    type Scored = (ShapeMatch, Option<Assigned>);
     /// An open candidate (`at` in `candidates`): its best bound, and its assigned pairs once
     /// known (`Some(None)`: it has none to assign).
     struct Open {
         bound: f64,
         id: ShapeId,
         at: usize,
-        pairs: Option<Option<Vec<crate::ComponentMatch>>>,
+        pairs: Option<Option<Vec<ComponentMatch>>>,
     }
     // the best first: the higher bound, then the lower id
     impl Ord for Open {
@@ -282,7 +287,7 @@ fn match_candidates(
     }
     // verification runs on the shortlist only: the first stage ranks without it, and keeps
     // each assignment (the costly step) for the shortlist to finish again with verification
-    let gamma = crate::unit_weight(params.verify_weight);
+    let gamma = unit_weight(params.verify_weight);
     let verifying = gamma > 0.0;
     let first = MatchParams {
         verify_weight: 0.0,
@@ -291,10 +296,10 @@ fn match_candidates(
     let step = |o: Open| -> Result<Step, IndexError> {
         let c = &candidates[o.at];
         let Some(pairs) = o.pairs else {
-            let pairs = crate::pair(mq, c.descriptors.len(), &c.d, &first, weights);
+            let pairs = pair(mq, c.descriptors.len(), &c.d, &first, weights);
             let bound = pairs
                 .as_ref()
-                .map_or(0.0, |m| crate::pairs_score(mq, m, &[], &first, weights));
+                .map_or(0.0, |m| pairs_score(mq, m, &[], &first, weights));
             return Ok(Step::Assigned(Open {
                 bound: bound.min(o.bound),
                 pairs: Some(pairs),
@@ -314,9 +319,9 @@ fn match_candidates(
         let scored = match pairs {
             None => (ShapeMatch::none(), None),
             Some(pairs) => {
-                let a = crate::check(query, v, pairs, &first);
+                let a = check(query, v, pairs, &first);
                 let kept = verifying.then(|| a.clone());
-                (crate::finish(query, v, &c.d, &first, weights, a), kept)
+                (finish(query, v, &c.d, &first, weights, a), kept)
             }
         };
         Ok(Step::Matched(o.at, l, scored))
@@ -396,11 +401,11 @@ fn match_candidates(
             .for_each(|(i, l, (m, assigned))| {
                 if let Some(a) = assigned.take() {
                     let c = &candidates[*i];
-                    *m = crate::finish(query, view(c, l, params), &c.d, params, weights, a);
+                    *m = finish(query, view(c, l, params), &c.d, params, weights, a);
                 }
             });
         for (i, l, (m, _)) in &mut ranked[shortlist..] {
-            if crate::can_verify(&query, &view(&candidates[*i], l, params), params) {
+            if can_verify(&query, &view(&candidates[*i], l, params), params) {
                 m.score *= 1.0 - gamma;
             }
         }
