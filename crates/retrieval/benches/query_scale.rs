@@ -5,7 +5,7 @@
 //! parts per shape grows to any size with realistic descriptors); queries are indexed shapes'
 //! descriptors and layout, perturbed alike.
 //!
-//! `cargo run --release -p keycomp-retrieval --example query_scale -- [SIZES] [INDEX] [QUERIES]`
+//! `cargo bench -p keycomp-retrieval --bench query_scale -- [SIZES] [INDEX] [QUERIES]`
 //! (SIZES: comma-separated shape counts, default 1000,10000,100000; INDEX: an index directory to
 //! take records from; QUERIES: queries per size, default 20; `SCALE_DIR=DIR` puts the grown
 //! indexes in DIR instead of the temporary folder). Prints a markdown table, medians over the
@@ -21,6 +21,8 @@
 //! of every descriptor), the searches of all compared queries in one batch
 //! (`nearest_components_batch`, then `rank_neighbours`), its time shared among them, and how
 //! many queries get the exact ranking's top 10 (`EXACT_QUERIES=N`: the first N queries only).
+//! Relative paths, on the command line and in the environment, are taken from the workspace
+//! root.
 //!
 //! With `FRAGMENTS=DIR` in the environment (DIR: the record cache of a scale-free `keycomp
 //! bench retrieval` run, `OUT/cache`), a second table times real fragment queries described
@@ -32,7 +34,9 @@
 use std::time::Instant;
 
 mod common;
-use common::{grown_copy, median, perturbed_query, resident_mb, view};
+use common::{
+    bench_args, env_path, grown_copy, median, perturbed_query, resident_mb, view, workspace_path,
+};
 use keycomp_describe::DIM;
 use keycomp_index::{IndexReader, IndexWriter, SearchMode, synthetic};
 use keycomp_retrieval::{
@@ -42,19 +46,22 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let sizes: Vec<u64> = std::env::args()
-        .nth(1)
-        .unwrap_or_else(|| "1000,10000,100000".into())
+    let Some(args) = bench_args() else {
+        return Ok(());
+    };
+    let sizes: Vec<u64> = args
+        .get(1)
+        .map_or("1000,10000,100000", String::as_str)
         .split(',')
         .map(|s| s.trim().parse())
         .collect::<Result<_, _>>()?;
-    let queries: usize = match std::env::args().nth(3) {
+    let queries: usize = match args.get(3) {
         Some(q) => q.parse()?,
         None => 20,
     };
-    let source: Option<Vec<keycomp_index::ShapeRecord<DIM>>> = match std::env::args().nth(2) {
+    let source: Option<Vec<keycomp_index::ShapeRecord<DIM>>> = match args.get(2) {
         Some(dir) => Some(
-            IndexReader::<DIM>::open(&dir)?
+            IndexReader::<DIM>::open(workspace_path(dir))?
                 .shapes()?
                 .iter()
                 .map(|s| (*s.record).clone())
@@ -63,7 +70,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         None => None,
     };
     // fragment queries: cached records of every scale hypothesis of a query
-    let fragments: Vec<Vec<keycomp_index::ShapeRecord<DIM>>> = match std::env::var_os("FRAGMENTS") {
+    let fragments: Vec<Vec<keycomp_index::ShapeRecord<DIM>>> = match env_path("FRAGMENTS") {
         Some(dir) => {
             let mut files: Vec<_> = std::fs::read_dir(dir)?
                 .filter_map(|e| e.ok().map(|e| e.path()))
@@ -98,7 +105,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for n in sizes {
-        let dir = match std::env::var_os("SCALE_DIR") {
+        let dir = match env_path("SCALE_DIR") {
             Some(parent) => tempfile::tempdir_in(parent)?,
             None => tempfile::tempdir()?,
         };

@@ -7,16 +7,18 @@
 //! parts searched in parallel by both) and recall against the exact search (the KD-tree,
 //! `SearchMode::Exact`): the share of each part's exact neighbours that are found.
 //!
-//! `cargo run --release -p keycomp-retrieval --example ann_compare -- SHAPES INDEX [QUERIES]`
+//! `cargo bench -p keycomp-retrieval --bench ann_compare -- SHAPES INDEX [QUERIES]`
 //! (SHAPES: shapes to grow the index to; INDEX: an index of real shapes whose records are
 //! copied with every descriptor value moved by up to ±0.01, as `query_scale` grows them;
 //! QUERIES: query shapes, default 20, each an indexed shape's parts moved alike). Prints a
 //! markdown table; medians over the query shapes.
+//! Relative paths, on the command line and in the environment, are taken from the workspace
+//! root.
 
 use std::time::Instant;
 
 mod common;
-use common::{grown_copy, median, resident_mb};
+use common::{bench_args, env_path, grown_copy, median, resident_mb, workspace_path};
 use hnsw_rs::prelude::{DistL2, Hnsw};
 use keycomp_describe::DIM;
 use keycomp_index::{IndexReader, IndexWriter, SearchMode, ShapeId, ShapeRecord};
@@ -34,7 +36,9 @@ fn recall(got: &[(ShapeId, usize)], want: &[(ShapeId, usize)]) -> f64 {
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let args: Vec<String> = std::env::args().collect();
+    let Some(args) = bench_args() else {
+        return Ok(());
+    };
     let usage = "usage: ann_compare SHAPES INDEX [QUERIES]";
     let n: usize = args.get(1).ok_or(usage)?.parse()?;
     let source = args.get(2).ok_or(usage)?;
@@ -42,7 +46,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Some(q) => q.parse()?,
         None => 20,
     };
-    let src: Vec<ShapeRecord<DIM>> = IndexReader::<DIM>::open(source)?
+    let src: Vec<ShapeRecord<DIM>> = IndexReader::<DIM>::open(workspace_path(source))?
         .shapes()?
         .iter()
         .map(|s| (*s.record).clone())
@@ -51,7 +55,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         return Err("the source index has no shape".into());
     }
     // the grown index, and every part's descriptor with its (shape, part), in the same order
-    let dir = match std::env::var_os("SCALE_DIR") {
+    let dir = match env_path("SCALE_DIR") {
         Some(parent) => tempfile::tempdir_in(parent)?,
         None => tempfile::tempdir()?,
     };

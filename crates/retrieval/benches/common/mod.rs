@@ -1,12 +1,41 @@
-#![allow(dead_code)] // each example uses a part of this module
-//! What this crate's scale examples (`query_scale`, `ann_compare`, `search_effort`) share: the
-//! grown copies of real records, the queries made of indexed records, resident memory,
-//! medians.
+#![allow(dead_code)] // each bench uses a part of this module
+//! What this crate's scale benches (`query_scale`, `ann_compare`, `search_effort`) share: their
+//! command line under `cargo bench`, the grown copies of real records, the queries made of
+//! indexed records, resident memory, medians.
+
+use std::path::{Path, PathBuf};
 
 use keycomp_describe::DIM;
 use keycomp_index::{IndexReader, ShapeId, ShapeRecord};
 use keycomp_retrieval::ShapeView;
 use rand::Rng;
+
+/// The bench's command line, its name first, without the `--bench` flag `cargo bench` appends;
+/// `None` when `cargo bench` did not run it (`cargo test --benches` and `--all-targets` run
+/// bench targets too, and a measurement is no test).
+pub fn bench_args() -> Option<Vec<String>> {
+    let args: Vec<String> = std::env::args().collect();
+    if !args.iter().any(|a| a == "--bench") {
+        eprintln!(
+            "a measurement: run it with `cargo bench -p keycomp-retrieval --bench NAME -- ARGS`"
+        );
+        return None;
+    }
+    Some(args.into_iter().filter(|a| a != "--bench").collect())
+}
+
+/// A path from the command line or the environment, a relative one taken from the workspace
+/// root (`cargo bench` runs a bench in its crate's folder).
+pub fn workspace_path(path: impl AsRef<Path>) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../..")
+        .join(path)
+}
+
+/// The path in the environment variable `var`, as [`workspace_path`] takes it.
+pub fn env_path(var: &str) -> Option<PathBuf> {
+    std::env::var_os(var).map(workspace_path)
+}
 
 /// Copy `i` of the records `src` (record `i mod len`), with its own path and content hash and
 /// every descriptor value moved by up to ±0.01 (draws from `jitter`, part after part).

@@ -12,7 +12,7 @@
 //! the density of near duplicates of a large one (200 sources at 1,000,000 shapes is 5,000
 //! copies each; so are 20 sources at 100,000). Queries are indexed shapes' parts moved alike.
 //!
-//! `cargo run --release -p keycomp-retrieval --example search_effort -- SHAPES INDEX [QUERIES]
+//! `cargo bench -p keycomp-retrieval --bench search_effort -- SHAPES INDEX [QUERIES]
 //! [SOURCES] [EFFORTS]` (EFFORTS: comma-separated `COARSExFINExRERANKxSETTLE`: coarse cells
 //! probed, fine cells examined, re-ranked candidates per neighbour, and whether the `k`-th
 //! place is settled by descriptors (1) or not (0), with no limit by share of the cells
@@ -28,11 +28,16 @@
 //! `query_scale`'s exact search). Prints a markdown table; medians
 //! over the queries, and the bytes read from the disk per query (mean, Linux; the reads the
 //! page cache serves are not counted).
+//! Relative paths, on the command line and in the environment, are taken from the workspace
+//! root.
 
 use std::time::Instant;
 
 mod common;
-use common::{disk_read_bytes, grown_copy, median, perturbed_query, view};
+use common::{
+    bench_args, disk_read_bytes, env_path, grown_copy, median, perturbed_query, view,
+    workspace_path,
+};
 use keycomp_describe::DIM;
 use keycomp_index::{
     ComponentMatch, IndexReader, IndexWriter, SearchEffort, SearchMode, ShapeId, ShapeRecord,
@@ -42,12 +47,14 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let args: Vec<String> = std::env::args().collect();
+    let Some(args) = bench_args() else {
+        return Ok(());
+    };
     let usage = "usage: search_effort SHAPES INDEX [QUERIES] [SOURCES] [EFFORTS]";
     let n: u64 = args.get(1).ok_or(usage)?.parse()?;
     let source = args.get(2).ok_or(usage)?;
     let queries: usize = args.get(3).map_or(Ok(20), |q| q.parse())?;
-    let mut src: Vec<ShapeRecord<DIM>> = IndexReader::<DIM>::open(source)?
+    let mut src: Vec<ShapeRecord<DIM>> = IndexReader::<DIM>::open(workspace_path(source))?
         .shapes()?
         .iter()
         .map(|s| (*s.record).clone())
@@ -83,12 +90,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         })
         .collect::<Result<_, _>>()?;
 
-    let grown = std::env::var_os("GROWN").map(std::path::PathBuf::from);
+    let grown = env_path("GROWN");
     // the index searched, and the folder grown here (removed at the end)
     let (dir, made) = match &grown {
         Some(g) => (g.clone(), None),
         None => {
-            let t = match std::env::var_os("SCALE_DIR") {
+            let t = match env_path("SCALE_DIR") {
                 Some(parent) => tempfile::tempdir_in(parent)?,
                 None => tempfile::tempdir()?,
             };
@@ -128,7 +135,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let top = |v: &[keycomp_retrieval::Ranked]| v.iter().map(|r| r.id).collect::<Vec<_>>();
     // the exact neighbours of every query part in one batch, and the exact rankings (read
     // from TRUTH when it was written for these queries)
-    let saved = std::env::var_os("TRUTH").map(std::path::PathBuf::from);
+    let saved = env_path("TRUTH");
     let key = {
         let bytes: Vec<u8> = asked
             .iter()
