@@ -7,10 +7,11 @@
 //! with every null component: area IoU > 0.5 = corresponding, IoU < 0.05 = not corresponding.
 //! Prints the median descriptor distance of both groups per kind, as a markdown table.
 //!
-//! `cargo run --release -p keycomp-describe --example descriptor_stability [DATA_DIR [SMOOTHING]]`
-//! (SMOOTHING: Taubin λ|μ pairs before describing, default 30 as in `DescribeParams`).
+//! `cargo bench -p keycomp-describe --bench descriptor_stability -- [DATA_DIR [SMOOTHING]]`
+//! (DATA_DIR: default `../shared/data`, a relative path taken from the workspace root;
+//! SMOOTHING: Taubin λ|μ pairs before describing, default 30 as in `DescribeParams`).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use keycomp_bench::{Kind, Pullback, overlap, transform};
 use keycomp_components::{DetectParams, detect};
@@ -22,12 +23,28 @@ fn median(mut v: Vec<f32>) -> Option<f32> {
     (!v.is_empty()).then(|| v[v.len() / 2])
 }
 
+/// The bench's command line, its name first, without the `--bench` flag `cargo bench` appends;
+/// `None` when `cargo bench` did not run it (`cargo test --benches` and `--all-targets` run
+/// bench targets too, and a measurement is no test).
+fn bench_args() -> Option<Vec<String>> {
+    let args: Vec<String> = std::env::args().collect();
+    if !args.iter().any(|a| a == "--bench") {
+        eprintln!(
+            "a measurement: run it with `cargo bench -p keycomp-describe --bench descriptor_stability`"
+        );
+        return None;
+    }
+    Some(args.into_iter().filter(|a| a != "--bench").collect())
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let data = PathBuf::from(
-        std::env::args()
-            .nth(1)
-            .unwrap_or_else(|| "../shared/data".into()),
-    );
+    let Some(args) = bench_args() else {
+        return Ok(());
+    };
+    // relative to the workspace root (`cargo bench` runs a bench in its crate's folder)
+    let data: PathBuf = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../..")
+        .join(args.get(1).map_or("../shared/data", String::as_str));
     let nulls = [
         "tosca/cat0.off",
         "tosca/centaur0.off",
@@ -35,7 +52,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "kids/0001.null.0.off",
     ];
     let describe_params = DescribeParams {
-        smoothing_iterations: match std::env::args().nth(2) {
+        smoothing_iterations: match args.get(2) {
             Some(s) => s.parse()?,
             None => DescribeParams::default().smoothing_iterations,
         },
