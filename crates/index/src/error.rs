@@ -147,7 +147,7 @@ pub enum IndexError {
     #[error(
         "index file {} is incompatible: format version {found}, this keycomp reads versions {} to {supported}; {}",
         path.display(),
-        crate::OLDEST_READABLE_VERSION,
+        crate::version::OLDEST_READABLE_VERSION,
         if *found > *supported {
             "upgrade keycomp, or rebuild the index with this version (`keycomp index add` into a new directory)"
         } else {

@@ -28,11 +28,13 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use xxhash_rust::xxh3::xxh3_64;
 
+use crate::codec::{le_u32, le_u64};
 use crate::error::{CorruptKind, IndexError, Result};
+use crate::version::OLDEST_READABLE_VERSION;
 
-/// Size of the footer in bytes.
+/// Size in bytes of the footer that closes every index file.
 pub const FOOTER_LEN: usize = 32;
-/// Magic number closing every index file.
+/// The magic number in the last 8 bytes of every index file.
 pub const MAGIC: [u8; 8] = *b"KCIDXEND";
 /// Footer kind code of the manifest.
 pub const KIND_MANIFEST: u32 = 1;
@@ -84,20 +86,8 @@ impl Opened {
     }
 }
 
-pub(crate) fn le_u64(b: &[u8]) -> u64 {
-    let mut a = [0u8; 8];
-    a.copy_from_slice(&b[..8]);
-    u64::from_le_bytes(a)
-}
-
-pub(crate) fn le_u32(b: &[u8]) -> u32 {
-    let mut a = [0u8; 4];
-    a.copy_from_slice(&b[..4]);
-    u32::from_le_bytes(a)
-}
-
 /// Checks the footer of `bytes` (read from `path`): length, magic, checksum, payload length,
-/// version (must be in [`crate::OLDEST_READABLE_VERSION`]`..=newest`), kind (must be `kind`).
+/// version (must be in [`OLDEST_READABLE_VERSION`]`..=newest`), kind (must be `kind`).
 pub fn unseal(path: &Path, bytes: Vec<u8>, kind: u32, newest: u32) -> Result<Opened> {
     let (checksum, version) = check_footer(path, &bytes, kind, newest, true)?;
     Ok(Opened {
@@ -153,7 +143,7 @@ pub fn check_footer(
         ));
     }
     let found_version = le_u32(&footer[12..16]);
-    if !(crate::OLDEST_READABLE_VERSION..=newest).contains(&found_version) {
+    if !(OLDEST_READABLE_VERSION..=newest).contains(&found_version) {
         return Err(IndexError::Incompatible {
             path: path.to_path_buf(),
             found: found_version,

@@ -892,7 +892,7 @@ impl Ivf {
         crate::file::seal(
             payload,
             crate::file::KIND_SEARCH_CACHE,
-            crate::FORMAT_VERSION,
+            crate::version::FORMAT_VERSION,
         )
         .0
     }
@@ -905,12 +905,12 @@ impl Ivf {
         name: &str,
         key: u64,
         origins: &[Origin],
-    ) -> crate::Result<std::path::PathBuf> {
+    ) -> crate::error::Result<std::path::PathBuf> {
         crate::file::write_atomic_sealed(
             dir,
             name,
             crate::file::KIND_SEARCH_CACHE,
-            crate::FORMAT_VERSION,
+            crate::version::FORMAT_VERSION,
             |w| self.write_payload(key, origins, w),
         )
     }
@@ -940,7 +940,7 @@ impl Ivf {
                 .push((o.position, first, end - first));
             first = end;
         }
-        let config = crate::manifest::bincode_config();
+        let config = crate::codec::bincode_config();
         let enc = |e: bincode::error::EncodeError| std::io::Error::other(e.to_string());
         let head = Head {
             tag: CACHE_TAG,
@@ -999,11 +999,11 @@ impl Ivf {
             path,
             bytes,
             crate::file::KIND_SEARCH_CACHE,
-            crate::FORMAT_VERSION,
+            crate::version::FORMAT_VERSION,
             true,
         )
         .ok()?;
-        if version != crate::FORMAT_VERSION {
+        if version != crate::version::FORMAT_VERSION {
             return None;
         }
         Ivf::from_payload(
@@ -1025,7 +1025,7 @@ impl Ivf {
         d: usize,
         origins: &[Origin],
     ) -> Option<FromCache> {
-        let (head, mut at): (HeadOwned, usize) = crate::manifest::decode_bounded(payload).ok()?;
+        let (head, mut at): (HeadOwned, usize) = crate::codec::decode_bounded(payload).ok()?;
         let n = points.len();
         let trained = usize::try_from(head.trained).ok()?;
         if head.tag != CACHE_TAG
@@ -1078,7 +1078,7 @@ impl Ivf {
         for _ in 0..count {
             offsets.push(at);
             let (seg, used): (SegmentCells, usize) =
-                crate::manifest::decode_bounded(payload.get(at..)?).ok()?;
+                crate::codec::decode_bounded(payload.get(at..)?).ok()?;
             at += used;
             for (first, a, items) in held(&seg)? {
                 let cells = &seg.cells[a..a + items];
@@ -1114,7 +1114,7 @@ impl Ivf {
         // pass 2: the codes, in cell order
         for &off in &offsets {
             let (seg, _): (SegmentCells, usize) =
-                crate::manifest::decode_bounded(&payload[off..]).ok()?;
+                crate::codec::decode_bounded(&payload[off..]).ok()?;
             for (first, a, items) in held(&seg)? {
                 for k in 0..items {
                     let j = place[first + k] as usize;
@@ -1657,12 +1657,12 @@ mod tests {
         );
         // well sealed, but a cell beyond the centroids, or more items listed than points
         let seal = |stored: &Stored| {
-            let payload = bincode::serde::encode_to_vec(stored, crate::manifest::bincode_config())
+            let payload = bincode::serde::encode_to_vec(stored, crate::codec::bincode_config())
                 .expect("encode");
             crate::file::seal(
                 payload,
                 crate::file::KIND_SEARCH_CACHE,
-                crate::FORMAT_VERSION,
+                crate::version::FORMAT_VERSION,
             )
             .0
         };

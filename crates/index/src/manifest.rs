@@ -9,15 +9,17 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use crate::codec::{bincode_config, decode_bounded};
+use crate::dir::MANIFEST_NAME;
 use crate::error::{CorruptKind, IndexError, Result};
 use crate::file::{self, KIND_MANIFEST};
 use crate::record::ShapeId;
-use crate::{FORMAT_VERSION, MANIFEST_NAME};
+use crate::version::FORMAT_VERSION;
 
 /// One live segment as the manifest records it.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct SegmentEntry {
-    /// Segment number; the file is [`segment_file_name`]`(number)`.
+    /// Segment number; the file is [`crate::dir::segment_file_name`]`(number)`.
     pub number: u64,
     /// Exact length of the segment file in bytes.
     pub len: u64,
@@ -73,57 +75,6 @@ impl From<ManifestV1> for Manifest {
             tombstones: m.tombstones,
             profile: String::new(),
         }
-    }
-}
-
-/// File name of segment `number`: `seg-NNNNNN.kcs` (at least 6 digits).
-pub fn segment_file_name(number: u64) -> String {
-    format!("seg-{number:06}.kcs")
-}
-
-/// Parses a segment file name back into its number.
-pub fn parse_segment_file_name(name: &str) -> Option<u64> {
-    let digits = name.strip_prefix("seg-")?.strip_suffix(".kcs")?;
-    if digits.len() < 6 || !digits.bytes().all(|b| b.is_ascii_digit()) {
-        return None;
-    }
-    digits.parse().ok()
-}
-
-pub(crate) fn bincode_config() -> bincode::config::Configuration<
-    bincode::config::LittleEndian,
-    bincode::config::Fixint,
-    bincode::config::NoLimit,
-> {
-    bincode::config::standard()
-        .with_little_endian()
-        .with_fixed_int_encoding()
-}
-
-/// Decodes a `T` from the start of `bytes` with the index's encoding, never allocating much
-/// more than `bytes` holds.
-///
-/// A length field inside the bytes (of a string, a path, a vector) is trusted by bincode up to
-/// its configured limit, and every decoded byte counts against that limit. The limit here is the
-/// smallest power of 16 (from 64 KiB) not below `bytes.len()`, so a crafted length fails with
-/// "limit exceeded" instead of an allocation of terabytes, and no honest payload, whose decoded
-/// bytes never exceed its own length, is refused.
-pub(crate) fn decode_bounded<T: serde::de::DeserializeOwned>(
-    bytes: &[u8],
-) -> std::result::Result<(T, usize), bincode::error::DecodeError> {
-    macro_rules! limited {
-        ($limit:expr) => {
-            bincode::serde::decode_from_slice(bytes, bincode_config().with_limit::<{ $limit }>())
-        };
-    }
-    match bytes.len() as u64 {
-        n if n <= 1 << 16 => limited!(1 << 16),
-        n if n <= 1 << 20 => limited!(1 << 20),
-        n if n <= 1 << 24 => limited!(1 << 24),
-        n if n <= 1 << 28 => limited!(1 << 28),
-        n if n <= 1 << 32 => limited!(1 << 32),
-        n if n <= 1 << 36 => limited!(1 << 36),
-        _ => limited!(1 << 40),
     }
 }
 
@@ -238,15 +189,6 @@ impl Manifest {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn segment_names_round_trip() {
-        assert_eq!(segment_file_name(42), "seg-000042.kcs");
-        assert_eq!(parse_segment_file_name("seg-000042.kcs"), Some(42));
-        assert_eq!(parse_segment_file_name("seg-1234567.kcs"), Some(1_234_567));
-        assert_eq!(parse_segment_file_name("seg-42.kcs"), None);
-        assert_eq!(parse_segment_file_name("seg-000042.kcs.tmp-1-0"), None);
-    }
 
     /// The manifest bytes are exactly the layout documented in index/README.md at the workspace root.
     #[test]

@@ -27,8 +27,7 @@ use std::path::PathBuf;
 use serde::{Deserialize, Serialize};
 use xxhash_rust::xxh3::{Xxh3Default, xxh3_64};
 
-use crate::file::{le_u32, le_u64};
-use crate::manifest::{bincode_config, decode_bounded};
+use crate::codec::{bincode_config, decode_bounded, le_u32, le_u64, put_u64};
 use crate::record::{ComponentRecord, ContentHash, ShapeId, ShapeRecord};
 use crate::segment::SegmentHead;
 
@@ -163,10 +162,6 @@ fn expand(layout: Layout, m: usize) -> Result<Vec<f32>, String> {
             Ok(full)
         }
     }
-}
-
-fn put_u64(out: &mut [u8], at: usize, v: u64) {
-    out[at..at + 8].copy_from_slice(&v.to_le_bytes());
 }
 
 /// The checksum of a record: its bytes, then its descriptors' bytes.

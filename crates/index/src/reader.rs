@@ -53,12 +53,13 @@ use rayon::prelude::*;
 use kiddo::SquaredEuclidean;
 use kiddo::immutable::float::kdtree::ImmutableKdTree;
 
-use crate::FORMAT_VERSION;
+use crate::dir::{MANIFEST_NAME, SEARCH_CACHE_NAME, segment_file_name};
 use crate::error::{IndexError, Result};
 use crate::ivf::{Ivf, Origin, SearchEffort};
-use crate::manifest::{Manifest, segment_file_name};
+use crate::manifest::Manifest;
 use crate::record::{ShapeId, ShapeRecord, canonical_path};
 use crate::segment;
+use crate::version::FORMAT_VERSION;
 
 /// A live shape of a snapshot.
 #[derive(Debug, Clone, PartialEq)]
@@ -207,7 +208,7 @@ impl MappedSegment {
             Ok(f) => f,
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
                 return Err(IndexError::MissingSegment {
-                    manifest: dir.join(crate::MANIFEST_NAME),
+                    manifest: dir.join(MANIFEST_NAME),
                     segment: path,
                 });
             }
@@ -317,10 +318,6 @@ impl MappedSegment {
         Ok(self.head.get_or_init(|| h))
     }
 }
-
-/// The file in an index folder that caches the inverted file of its current descriptors
-/// (derived data: any reader may rewrite it; a damaged or stale one is rebuilt).
-pub const SEARCH_CACHE_NAME: &str = "SEARCH-CACHE";
 
 /// How [`IndexReader::nearest_components`] searches.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

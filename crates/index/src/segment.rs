@@ -10,11 +10,13 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use crate::codec::decode_bounded;
+use crate::dir::{MANIFEST_NAME, segment_file_name};
 use crate::error::{CorruptKind, IndexError, Result};
 use crate::file::{self, KIND_SEGMENT};
-use crate::manifest::{Manifest, SegmentEntry, decode_bounded, segment_file_name};
+use crate::manifest::{Manifest, SegmentEntry};
 use crate::record::{ContentHash, ShapeId, ShapeRecord, ShapeRecordV2, ShapeRecordV3};
-use crate::{FORMAT_VERSION, MANIFEST_NAME};
+use crate::version::FORMAT_VERSION;
 
 /// Catalogue entry of one shape in a segment head.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]

@@ -9,12 +9,12 @@
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
-use crate::MANIFEST_NAME;
+use crate::dir::{MANIFEST_NAME, leftover_files, parse_segment_file_name, segment_file_name};
 use crate::error::{CorruptKind, IndexError, Result};
 use crate::file::{self, KIND_SEGMENT};
-use crate::manifest::{Manifest, parse_segment_file_name, segment_file_name};
+use crate::manifest::Manifest;
 use crate::segment;
-use crate::writer::leftover_files;
+use crate::version::FORMAT_VERSION;
 
 /// What [`verify`] found.
 #[derive(Debug)]
@@ -111,9 +111,7 @@ fn verify_once<const D: usize>(dir: &Path) -> Result<VerifyReport> {
             for p in names {
                 let checked = file::read_all(&p)
                     .map_err(|e| IndexError::io("could not read", &p, e))
-                    .and_then(|b| {
-                        file::unseal(&p, b, KIND_SEGMENT, crate::FORMAT_VERSION).map(|_| ())
-                    });
+                    .and_then(|b| file::unseal(&p, b, KIND_SEGMENT, FORMAT_VERSION).map(|_| ()));
                 if let Err(e) = checked {
                     report.problems.push(e);
                 }

@@ -17,12 +17,15 @@ use std::collections::HashMap;
 use std::fs::{self, File, OpenOptions};
 use std::path::{Path, PathBuf};
 
+use crate::dir::{
+    LOCK_NAME, MANIFEST_NAME, leftover_files, parse_segment_file_name, segment_file_name,
+};
 use crate::error::{IndexError, Result};
-use crate::file::{self, TEMP_INFIX};
-use crate::manifest::{Manifest, SegmentEntry, parse_segment_file_name, segment_file_name};
+use crate::file;
+use crate::manifest::{Manifest, SegmentEntry};
+use crate::reader::IndexReader;
 use crate::record::{ContentHash, ShapeId, ShapeRecord, canonical_path};
 use crate::segment;
-use crate::{LOCK_NAME, MANIFEST_NAME};
 
 /// What happened to one record given to [`IndexWriter::add_batch`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -271,7 +274,7 @@ impl<const D: usize> IndexWriter<D> {
     /// with the same content hash is stored once; with another hash, the merge stops with
     /// [`IndexError::MergeConflict`] naming both indexes. On any error nothing is written.
     /// Shapes get new ids here, in source order, then each source's id order.
-    pub fn merge(&mut self, sources: &[crate::IndexReader<D>]) -> Result<MergeSummary> {
+    pub fn merge(&mut self, sources: &[IndexReader<D>]) -> Result<MergeSummary> {
         let mut profile: Option<(String, PathBuf)> = if self.live.is_empty() {
             None
         } else {
@@ -616,29 +619,6 @@ impl<const D: usize> IndexWriter<D> {
         }
         Ok(removed)
     }
-}
-
-/// Files in `dir` that belong to the index's naming scheme but are not referenced: temp files
-/// and segment files whose number is not in `listed`.
-pub(crate) fn leftover_files(
-    dir: &Path,
-    listed: &std::collections::HashSet<u64>,
-) -> Result<Vec<PathBuf>> {
-    let mut out = Vec::new();
-    let rd = fs::read_dir(dir).map_err(|e| IndexError::io("could not list", dir, e))?;
-    for ent in rd {
-        let ent = ent.map_err(|e| IndexError::io("could not list", dir, e))?;
-        let name = ent.file_name();
-        let Some(name) = name.to_str() else { continue };
-        let is_temp = name.contains(TEMP_INFIX)
-            && (name.starts_with("seg-") || name.starts_with(MANIFEST_NAME));
-        let unlisted_segment = parse_segment_file_name(name).is_some_and(|n| !listed.contains(&n));
-        if is_temp || unlisted_segment {
-            out.push(ent.path());
-        }
-    }
-    out.sort();
-    Ok(out)
 }
 
 /// Where two profiles differ: the JSON fields whose values differ (by dotted path, nested
