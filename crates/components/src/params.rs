@@ -26,10 +26,10 @@
 //! keypoints instead of 500 its cost is four times KC-1's per start, and the second start
 //! changes no row by more than 0.004.
 //!
-//! Measured with `keycomp bench repeatability` (BENCHMARKS.md section 3, *The robust
-//! preset*): average overlap at strength ≤ 5 from 0.848 (KC-1) to 0.895, noise 0.666 →
-//! 0.834, shot noise 0.619 → 0.852, isometry 0.757 → 0.831, with every row (some lose up
-//! to 0.023) and each ingredient's share reported there; detection takes 1.5–1.6× KC-1's
+//! With `keycomp bench repeatability` (BENCHMARKS.md, *Repeatability*), KC-1 against robust:
+//! average overlap at strength ≤ 5 0.848 against 0.895, noise 0.666 against 0.834, shot
+//! noise 0.619 against 0.852, isometry 0.757 against 0.831, with every row (some lose up to
+//! 0.023) and each ingredient's share reported there; detection takes 1.5–1.6× KC-1's
 //! time.
 
 use std::fmt;

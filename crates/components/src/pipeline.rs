@@ -26,7 +26,7 @@
 //!
 //! # Geodesic proxy (a deviation from the paper, on by default)
 //!
-//! The paper computes the distances on the mesh itself. By default we run the fronts on a
+//! The paper computes the distances on the mesh itself. By default the fronts run on a
 //! simplified proxy of at most 10,000 vertices ([`GeodesicOptions::DEFAULT_PROXY_VERTICES`]),
 //! for speed: a front costs O(|V| log |V|) and there are K ≈ |V|/100 of them, so a proxy of N
 //! vertices divides the dominant term by about |V|/N, for the price of one simplification
@@ -35,20 +35,21 @@
 //! [`GeodesicOptions::proxy_cell_vertices`]). The proxy keeps the survivors'
 //! exact positions and the surface's topology (link condition), so its distances differ from
 //! the mesh's by the discretisation error of fast marching on longer edges plus the shortcut of
-//! flattened detail. Measured (2026-11-22, `BENCHMARKS.md` section 2, example
-//! `geodesic_proxy`): the K×K matrix of a 20k proxy differs from the full mesh's by 0.4–0.9 %
-//! on average (`cat0` 0.43 %, `nefertiti` 0.50 %, KIDS 0.94 %); on `icosphere(6)` its mean
-//! error against great circles is 0.95 % (full mesh 0.49 %); TOSCA cat poses keep their mean
-//! best IoU (0.863 both ways) and the repeatability benchmark its KC-1 average overlap within
-//! the noise of the SMACOF seed (strength ≤ 5: 0.844 vs 0.847 with seed 0, 0.839 vs 0.840 with
-//! seed 1), while detection takes 2.6× (50k vertices) to 2.7× (60k) fewer CPU cycles. The
-//! default went from 20,000 to 10,000 vertices on 2026-12-04 (BENCHMARKS.md section 2, *A
-//! 10,000-vertex proxy*): KC-1 average overlap at strength ≤ 5 0.850 → 0.848 (no row more
-//! than 0.019 lower), the retrieval tables on Watertight and TOSCA within 0.01 of the 20k
-//! proxy's, `keycomp detect` 0.76× (nefertiti) and 0.79× (KIDS) the wall time.
-//! Meshes of at most 10,000 referenced vertices are not affected. [`GeodesicOptions::full_mesh`]
-//! (`proxy_vertices` = 0; `keycomp detect --geodesic-vertices 0`) is the paper's method. Only
-//! step 3 sees the proxy: Harris, region growing and every reported id use the mesh.
+//! flattened detail. The K×K matrix of a 20,000-vertex proxy differs from the full mesh's by
+//! 0.4–0.9 % on average (`cat0` 0.43 %, `nefertiti` 0.50 %, KIDS 0.94 %); on `icosphere(6)`
+//! its mean error against great circles is 0.95 % (full mesh 0.49 %); TOSCA cat poses keep
+//! their mean best IoU (0.863 both ways) and the repeatability benchmark's KC-1 average
+//! overlap stays within the noise of the SMACOF seed of the full mesh's (strength ≤ 5:
+//! 0.844 vs 0.847 with seed 0, 0.839 vs 0.840 with seed 1) for 2.6× (50k vertices) to 2.7×
+//! (60k) fewer CPU cycles. The 10,000-vertex default against a
+//! 20,000-vertex proxy: KC-1 average overlap at strength ≤ 5 0.848 vs 0.850 (no row more than
+//! 0.019 lower), the retrieval tables on Watertight and TOSCA within 0.01, `keycomp detect`
+//! in 0.76× (nefertiti) and 0.79× (KIDS) the wall time (BENCHMARKS.md, *Detection* and
+//! *Repeatability*; the matrix errors by `cargo bench -p keycomp-components --bench
+//! geodesic_proxy`). Meshes of at most 10,000 referenced vertices are not affected.
+//! [`GeodesicOptions::full_mesh`] (`proxy_vertices` = 0; `keycomp detect --geodesic-vertices
+//! 0`) is the paper's method. Only step 3 sees the proxy: Harris, region growing and every
+//! reported id use the mesh.
 //!
 //! # Landmark fronts (a deviation from the paper, on by default)
 //!
@@ -59,11 +60,12 @@
 //! front measured gets the shortest path through one landmark
 //! (`keycomp_geodesic::landmark_distance_matrix`). Shapes with at most 100 keypoints (meshes
 //! under about 10,000 vertices) are unaffected. The matrix of a 50–60k-vertex mesh then
-//! differs from the full one by 0.75–1.3 % on average, and together with SMACOF's classical
-//! start (see [`mod@crate::smacof`]) the repeatability benchmark's KC-1 average overlap at
-//! strength ≤ 5 goes from 0.844 to 0.848 with no row losing more than 0.015, while
-//! `keycomp detect` takes 0.41× (`nefertiti.obj`) and 0.37× (KIDS `0001.null.0`) the wall
-//! time (BENCHMARKS.md section 2, *Landmark fronts and a classical start*). `--landmarks 0 --smacof-starts 4
+//! differs from the full one by 0.75–1.3 % on average. Together with SMACOF's classical
+//! start (see [`mod@crate::smacof`]), against a full front per keypoint and four random
+//! starts on a 20,000-vertex proxy: the repeatability benchmark's KC-1 average overlap at
+//! strength ≤ 5 is 0.848 against 0.844, no row more than 0.015 lower, and `keycomp detect`
+//! takes 0.41× (`nefertiti.obj`) and 0.37× (KIDS `0001.null.0`) the wall time
+//! (BENCHMARKS.md, *Detection* and *Repeatability*). `--landmarks 0 --smacof-starts 4
 //! --smacof-init random --geodesic-vertices 0` is the paper's method.
 
 use std::time::Instant;
@@ -127,8 +129,8 @@ pub struct GeodesicOptions {
     /// full front, the others a front stopped at [`GeodesicOptions::landmark_radius`] covering
     /// radii, and the pairs no front measured get the shortest path through one landmark.
     /// Default [`GeodesicOptions::DEFAULT_LANDMARKS`] (a deviation from the paper). 0:
-    /// every keypoint runs a full front, as in the paper (also the value of a recorded
-    /// parameter set that lacks the field, as written before it existed).
+    /// every keypoint runs a full front, as in the paper (also what a recorded parameter set
+    /// without the field reads as).
     #[serde(default)]
     pub landmarks: usize,
     /// Where the short fronts of the non-landmark keypoints stop, in covering radii (the
@@ -144,8 +146,8 @@ pub struct GeodesicOptions {
     /// twice this many vertices: one cell, a single decimation of the whole mesh. The cells
     /// are a function of the mesh, never of the number of threads. Otherwise at least
     /// [`GeodesicOptions::MIN_PROXY_CELL_VERTICES`]. Default
-    /// [`GeodesicOptions::DEFAULT_PROXY_CELL_VERTICES`]; a recorded parameter set that lacks
-    /// the field (written before it existed) reads as 0, its behaviour then.
+    /// [`GeodesicOptions::DEFAULT_PROXY_CELL_VERTICES`]; a recorded parameter set without
+    /// the field reads as 0 (one cell).
     #[serde(default)]
     pub proxy_cell_vertices: usize,
 }

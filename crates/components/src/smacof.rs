@@ -37,12 +37,11 @@
 //! double-centred squared distances) is a start close to a good minimum (on a sphere's
 //! great-circle distances it ends within 5 % of the best of four random starts' stress, a
 //! test below). The default is two starts, the classical one and one random (they run side by
-//! side on two threads), instead of four random ones:
-//! measured by the repeatability benchmark with the landmark fronts of
-//! `keycomp_geodesic::landmark_distance_matrix` (BENCHMARKS.md section 2, *Landmark fronts
-//! and a classical start*), KC-1's average overlap at strength ≤ 5 goes from 0.844 to 0.848,
-//! no row losing more than 0.015. `classical_start: false, starts: 4` gives four random
-//! starts.
+//! side on two threads), instead of four random ones. With the landmark fronts of
+//! `keycomp_geodesic::landmark_distance_matrix`, against four random starts and full fronts,
+//! the repeatability benchmark's KC-1 average overlap at strength ≤ 5 is 0.848 against
+//! 0.844, no row more than 0.015 lower (BENCHMARKS.md, *Repeatability*).
+//! `classical_start: false, starts: 4` gives four random starts.
 //!
 //! References: I. Borg and P. J. F. Groenen, *Modern Multidimensional Scaling: Theory and
 //! Applications*, 2nd ed., Springer, 2005 (ch. 8); J. de Leeuw, "Applications of convex analysis
@@ -77,8 +76,8 @@ pub struct SmacofParams {
     /// Start 0 from the classical (Torgerson) scaling of the matrix instead of a random
     /// configuration (see *Classical start* in the module docs); the other starts stay random.
     /// Default `true`.
-    /// A recorded parameter set that lacks the field (written before it existed) reads as
-    /// `false`, its behaviour then.
+    /// A recorded parameter set without the field reads as `false` (every start
+    /// random).
     #[serde(default)]
     pub classical_start: bool,
 }

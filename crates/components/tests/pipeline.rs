@@ -170,9 +170,8 @@ fn proxy_distances_stay_close_to_the_full_mesh_and_to_great_circles() {
     let (d_full, n_full, t_full) = keypoint_distances(&mesh, &topo, &keypoints, &full).unwrap();
     assert_eq!((n_full, t_full), (mesh.num_vertices(), 0.0));
     let (err_full, _) = relative_difference(d_full.as_slice(), &exact, k);
-    // bounds: the issue's 1 % for the method at 20k vertices (the full mesh gives 0.49 %); a
-    // proxy of a quarter of the vertices measured 1.07 %, and the same in four cells
-    // (simplified in parallel) 1.07 % as well
+    // bounds: 1 % for the method at 20k vertices (the full mesh gives 0.49 %); a proxy of a
+    // quarter of the vertices gives 1.07 %, in one cell or in four (simplified in parallel)
     for (proxy, cells, count, bound) in [
         (20_000, 0, 1, 0.01),
         (10_000, 0, 1, 0.015),
@@ -239,7 +238,7 @@ fn geodesic_options_are_validated_and_default_in_json() {
         p.geodesic.proxy_cell_vertices = cells;
         assert_eq!(detect(&mesh, &p).is_ok(), ok, "cells of {cells}");
     }
-    // configurations written before the option existed read as the default
+    // a configuration without the field reads as the default
     let old: DetectParams = serde_json::from_str(r#"{"components": {"sigma": 1.2}}"#).unwrap();
     assert_eq!(old.geodesic, GeodesicOptions::default());
     let json = serde_json::to_string(&DetectParams::default()).unwrap();

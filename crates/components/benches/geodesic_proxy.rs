@@ -11,15 +11,16 @@
 //! compared with great circles as well.
 //!
 //! ```text
-//! cargo run --release -p keycomp-components --example geodesic_proxy -- \
+//! cargo bench -p keycomp-components --bench geodesic_proxy -- \
 //!     [--runs 3] [--settings 20000@90,0@110,10000@90/100:2#12500,...] [--sphere 6] MESH...
 //! ```
 //!
 //! A setting is `N@ANGLE[/L[:F]]`: proxy of at most N vertices (0 = full mesh), obtuse corners
 //! split from ANGLE degrees, and optionally landmark fronts: L landmarks, short fronts stopped
 //! at F covering radii (default 2); a suffix `#C` simplifies in cells of at least C vertices
-//! (`GeodesicOptions::proxy_cell_vertices`; none: one cell). Threads: the global rayon pool (`RAYON_NUM_THREADS=2` for the
-//! two-thread figures).
+//! (`GeodesicOptions::proxy_cell_vertices`; none: one cell). Threads: the global rayon pool
+//! (`RAYON_NUM_THREADS=2` for the two-thread figures). The `--bench` flag that `cargo bench`
+//! passes is ignored.
 
 use std::time::Instant;
 
@@ -165,6 +166,8 @@ fn main() -> Res<()> {
                 }
             }
             "--sphere" => sphere = Some(args.next().ok_or("--sphere L")?.parse::<u32>()?),
+            // added by `cargo bench`
+            "--bench" => {}
             _ => files.push(a),
         }
     }
