@@ -426,7 +426,7 @@ fn smoothing_lowers_a_spike_against_real_features() {
     // shot noise: on a sphere with six smooth protrusions, the body vertex farthest from
     // every protrusion pushed out by a twentieth of the radius. Smoothing the copy the
     // responses are computed on lowers the spike's response against the protrusion tips'
-    // several times over (measured: about 7×).
+    // several times over (about 7× on this mesh).
     let mut m = synth::protrusion_sphere(4, 0.8, 0.25);
     let dirs = synth::protrusion_directions();
     let spike = (0..m.num_vertices() as u32)

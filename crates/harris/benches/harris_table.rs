@@ -2,7 +2,8 @@
 //! icosphere): reading time, response + selection with 1 and 2 threads, vertices per second.
 //! Median of 5 runs each.
 //!
-//! `cargo run --release -p keycomp-harris --example harris_table`
+//! `cargo bench -p keycomp-harris --bench harris_table` (no arguments; the `--bench` flag that
+//! `cargo bench` passes is ignored)
 
 use std::path::PathBuf;
 use std::time::Instant;
