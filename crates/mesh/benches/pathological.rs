@@ -3,13 +3,19 @@
 //! `polygon-N.off` for N = 20,000, 40,000 and 80,000 (one wavy polygon of N corners as a single
 //! OFF face, which the reader fan-triangulates: its first corner gets valence N − 1).
 //!
-//! `cargo run --release -p keycomp-mesh --example pathological -- DIR`
+//! `cargo bench -p keycomp-mesh --bench pathological -- DIR` (the `--bench` flag that `cargo
+//! bench` passes is ignored; without DIR it prints its usage and writes nothing)
 
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let dir = PathBuf::from(std::env::args().nth(1).ok_or("usage: pathological DIR")?);
+    // `cargo bench` adds `--bench`
+    let Some(dir) = std::env::args().skip(1).find(|a| a != "--bench") else {
+        eprintln!("usage: cargo bench -p keycomp-mesh --bench pathological -- DIR");
+        return Ok(());
+    };
+    let dir = PathBuf::from(dir);
     std::fs::create_dir_all(&dir)?;
     keycomp_mesh::write_off(
         &keycomp_mesh::synth::bicone(5000),
