@@ -36,15 +36,15 @@
 //!   ordering (regions of little heat, image MSER's "MSER−") is not searched.
 //! - **Time** `t = time × area` with default `time = 0.02`, **edge** weights by default, and the
 //!   stability parameters of [`StableParams`] (Δ 0.1, area 1–50 %, variation ≤ 1, diversity
-//!   0.5). Chosen by hand, not on the benchmark, with the `mser_explore` example: on
+//!   0.5). Chosen by hand, not on the benchmark, with the `mser_explore` harness
+//!   (`cargo bench -p keycomp-mser --bench mser_explore`): on
 //!   `synth::protrusion_sphere(5, 0.8, 0.25)` every combination of edge/vertex weights,
 //!   `time ∈ {0.005, 0.02, 0.1}` and `Δ ∈ {0.05, 0.15}` gives six MSER key-components, one
 //!   per protrusion; on TOSCA `cat0` the defaults give six key-components covering its eight
 //!   HKS keypoints — the four paws, the tail tip and the head (10 % of the surface, three
 //!   keypoints) — and on KIDS `0001.null.0` the hands, feet and head (inspected on renders).
-//!   A diversity
-//!   of 0.2 left up to 40 nested near-copies per shape, 0.5 about 15. The paper's HKS
-//!   keypoints keep their own `t = 0.1 × area`.
+//!   A diversity of 0.2 leaves up to 40 nested near-copies per shape, 0.5 about 15. The
+//!   paper's HKS keypoints keep their own `t = 0.1 × area`.
 //! - **Areas** are lumped vertex masses (one third of the incident triangles' area).
 //! - **Keypoints no component contains** are left uncovered (reported, not forced into a
 //!   component).

@@ -1,13 +1,22 @@
 //! Prints the maximally stable components and MSER key-components of a mesh file (or of a
 //! synthetic protrusion sphere) with chosen parameters, to tune and inspect the method.
 //!
-//! `cargo run --release -p keycomp-mser --example mser_explore -- [MESH|synth] [edge|vertex] [time] [delta] [min_diversity] [max_variation]`
+//! ```text
+//! cargo bench -p keycomp-mser --bench mser_explore -- \
+//!     [MESH|synth] [edge|vertex] [time] [delta] [min_diversity] [max_variation]
+//! ```
+//!
+//! The `--bench` flag that `cargo bench` passes is ignored.
 
 use keycomp_mesh::{read_mesh, synth};
 use keycomp_mser::{MserParams, StableParams, detect};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
+    // `cargo bench` adds `--bench`
+    let args: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| a != "--bench")
+        .collect();
     let mesh = match args.first().map(String::as_str) {
         None | Some("synth") => synth::protrusion_sphere(5, 0.8, 0.25),
         Some(path) => read_mesh(std::path::Path::new(path))?.mesh,
