@@ -32,7 +32,7 @@
 //! the mean depth complexity (triangles covering a sample, about 2 for a closed surface); the
 //! rasteriser also scans each triangle's bounding box. Memory is `O(V + F + S)` (8 bytes per
 //! sample). A 50,000-vertex, 100,000-face mesh at 512 px with 2×2 supersampling renders in
-//! about 40 ms on two cores, PNG encoding adds about 1 ms (`examples/render_time.rs`).
+//! about 40 ms on two cores, PNG encoding adds about 1 ms (`benches/render_time.rs`).
 //!
 //! # References
 //! - J. Pineda, "A parallel algorithm for polygon rasterization", SIGGRAPH 1988, Computer
