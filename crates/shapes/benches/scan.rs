@@ -1,14 +1,20 @@
-//! Generates instances of every class at a vertex target and reports failures and timings:
-//! `cargo run --release -p keycomp-shapes --example scan -- [TARGET] [INSTANCES] [RELAX_ROUNDS]`.
+//! Generates instances of every class at a vertex target and reports failures, timings and
+//! the worst triangle (smallest angle, smallest relative area) of each:
+//! `cargo bench -p keycomp-shapes --bench scan -- [TARGET] [INSTANCES] [RELAX_ROUNDS]` (the
+//! `--bench` flag that `cargo bench` passes is ignored).
 use std::time::Instant;
 
 use keycomp_shapes::{Class, GenerateParams, check, generate};
 
 fn main() {
-    let args: Vec<String> = std::env::args().collect();
-    let target = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(20_000);
-    let n = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(6);
-    let rounds = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(4);
+    // `cargo bench` adds `--bench`
+    let args: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| a != "--bench")
+        .collect();
+    let target = args.first().and_then(|s| s.parse().ok()).unwrap_or(20_000);
+    let n = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(6);
+    let rounds = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(4);
     let params = GenerateParams {
         target_vertices: target,
         relax_rounds: rounds,
