@@ -35,10 +35,7 @@
 //! heap is shallow; the exact mode is 13–34 % slower (the sort, the stale pops and the bucket
 //! scan add unpredictable branches: 2.4× the heap's branch misses on `icosphere(6)`), and the
 //! untidy mode runs 11–13 % fewer instructions but only 0–10 % fewer cycles (the front is bound
-//! by memory latency, not by the queue). Neither is the default. Also measured and not kept:
-//! buckets as sorted linked lists from one node pool with an occupancy bitmap (every bucket
-//! always sorted, no sort step): fewer instructions than the sorted vectors but more branch
-//! misses, slower.
+//! by memory latency, not by the queue). Neither is the default.
 
 /// The priority queue of a front: insert-or-lower and pop-min, keys ≥ 0.
 pub(crate) trait FrontQueue {

@@ -5,9 +5,9 @@
 //! tentative value sifts the entry up in place. Four children per node halve the depth of a
 //! binary heap, and the four keys of a node's children are compared as a small tournament
 //! (two independent comparisons, then one), which the compiler turns into conditional moves.
-//! Measured on `icosphere(6)`: about 2× faster per front than a binary heap or a radix heap
-//! with lazy deletion, which pop every vertex about twice; faster than the exact monotone bucket
-//! queue of [`crate::bucket`] on every mesh we tried (crate documentation, *Priority queue*).
+//! A heap with lazy deletion instead of decrease-key would pop every vertex about twice. On the
+//! shallow trial band of a front this heap is faster than the exact monotone bucket queue of
+//! [`crate::bucket`] (crate documentation, *Priority queue*).
 //!
 //! Push / decrease-key O(log₄ m), pop O(4 log₄ m), m = entries in the heap. Ties are broken
 //! by position, deterministically.

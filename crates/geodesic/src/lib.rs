@@ -82,17 +82,17 @@
 //!
 //! Per front of a K×K matrix (K = 1 % of the vertices, one thread, median of 5 alternated runs,
 //! user-space cycles from `perf stat`, one x86 core at about 4 GHz shared with another
-//! workload), before and after the ring layout and branch-free two-point updates:
+//! workload):
 //!
-//! | mesh | vertices | split corners | Mcycles before | Mcycles after |
-//! |---|---|---|---|---|
-//! | `icosphere(6)` | 40,962 | 0 | 14.1 | 12.9 |
-//! | `nefertiti.obj` | 49,971 | 44,810 | 45.5 | 32.1 |
-//! | `horse.ply` | 48,485 | 17,025 | 38.1 | 30.9 |
-//! | KIDS `0001.null.0.off` | 59,727 | 63,013 | 55.6 | 45.0 |
+//! | mesh | vertices | split corners | Mcycles per front |
+//! |---|---|---|---|
+//! | `icosphere(6)` | 40,962 | 0 | 12.9 |
+//! | `nefertiti.obj` | 49,971 | 44,810 | 32.1 |
+//! | `horse.ply` | 48,485 | 17,025 | 30.9 |
+//! | KIDS `0001.null.0.off` | 59,727 | 63,013 | 45.0 |
 //!
-//! Results are unchanged (same mean relative errors to four digits on every oracle of
-//! tests/oracle.rs: `icosphere(6)` 0.494 %, sheared grid 0.378 %, jittered grid 0.978 %).
+//! Mean relative errors on the oracles of tests/oracle.rs: `icosphere(6)` against great circles
+//! 0.494 %, the sheared grid 0.378 %, the jittered grid 0.978 %.
 //! On `nefertiti.obj` the virtual stencils cost about a third of a front (20.5 Mcycles with
 //! splitting disabled, 24.8 when splitting only corners above 110°); on `icosphere(6)` with
 //! vertices jittered by ±0.4 edge lengths and projected back to the sphere, the mean relative
@@ -164,4 +164,5 @@ mod unfold;
 
 pub use error::GeodesicError;
 pub use matrix::{DistanceMatrix, LandmarkStats, distance_matrix, landmark_distance_matrix};
-pub use solver::{GeodesicParams, GeodesicSolver, ObtuseStats, QueueKind, Workspace};
+pub use solver::{GeodesicParams, GeodesicSolver, QueueKind, Workspace};
+pub use unfold::ObtuseStats;

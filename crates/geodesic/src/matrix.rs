@@ -51,7 +51,8 @@ use std::sync::{Mutex, PoisonError};
 use keycomp_mesh::VertexId;
 use rayon::prelude::*;
 
-use crate::{GeodesicError, GeodesicSolver, Workspace};
+use crate::error::GeodesicError;
+use crate::solver::{GeodesicSolver, Workspace};
 
 /// A symmetric K×K matrix of geodesic distances between keypoints, row-major, every entry
 /// finite and ≥ 0 with a zero diagonal.

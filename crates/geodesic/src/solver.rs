@@ -15,21 +15,13 @@
 //!   touched), the priority queue (an indexed 4-ary heap by default, or a bucket queue, see
 //!   [`QueueKind`]; the marching loop is generic over it) and the target marks for early
 //!   termination.
-//!
-//! Measured and not kept: computing the two-point update of every wedge without any branch
-//! (4 % fewer mispredictions but 45 % more instructions, slower); a heap insertion without a
-//! branch on new-vs-present (no fewer mispredictions); touching the next heap top's run early
-//! to overlap its cache misses (more mispredictions, no gain); renumbering vertices in BFS,
-//! Morton or random order (within noise: the front visits each run once, in an order no
-//! numbering follows); monotone bucket queues in place of the heap (kept as options, see
-//! [`QueueKind`] and [`crate::bucket`]).
 
 use keycomp_mesh::{Mesh, Topology, VertexId};
 
-use crate::GeodesicError;
 use crate::bucket::{BucketQueue, FrontQueue};
+use crate::error::GeodesicError;
 use crate::heap::IndexedHeap;
-use crate::unfold;
+use crate::unfold::{self, ObtuseStats};
 
 /// Parameters of [`GeodesicSolver`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -93,19 +85,6 @@ impl Default for GeodesicParams {
             queue: QueueKind::Heap,
         }
     }
-}
-
-/// How the solver dealt with the mesh's obtuse triangles, counted when it was built.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct ObtuseStats {
-    /// Face corners with an angle above 90°.
-    pub obtuse_corners: usize,
-    /// Obtuse corners split by an unfolded vertex (virtual edge added).
-    pub split: usize,
-    /// Obtuse corners left to the safe fallback (no splitting vertex within
-    /// [`GeodesicParams::max_unfold_steps`], or the unfolding hit a boundary or a non-manifold
-    /// edge).
-    pub unsplit: usize,
 }
 
 /// One entry of a vertex x's ring: the neighbour `id` at distance `l = |x − id|`, and the wedge

@@ -19,8 +19,9 @@
 //!    Otherwise continue across XR if X lies on A's side of the cone, across LX if on B's side,
 //!    for at most `max_unfold_steps` triangles.
 //! 4. A boundary edge, a non-manifold edge, running out of steps, or an angle below
-//!    `min_split_angle_degrees` leaves the corner to the safe fallback (two-point updates only when the characteristic enters the triangle, edge updates
-//!    otherwise), counted in [`crate::ObtuseStats::unsplit`].
+//!    `min_split_angle_degrees` leaves the corner to the safe fallback (two-point updates only when
+//!    the characteristic enters the triangle, edge updates otherwise), counted in
+//!    [`ObtuseStats::unsplit`].
 //!
 //! Virtual stencils only make two-point updates (never edge updates along the virtual edge,
 //! which need not lie on the surface), so they can only lower a value to another consistent
@@ -33,8 +34,20 @@
 
 use keycomp_mesh::{Mesh, Topology, VertexId};
 
-use crate::GeodesicError;
-use crate::solver::ObtuseStats;
+use crate::error::GeodesicError;
+
+/// How the solver dealt with the mesh's obtuse triangles, counted when it was built.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ObtuseStats {
+    /// Face corners with an angle above 90°.
+    pub obtuse_corners: usize,
+    /// Obtuse corners split by an unfolded vertex (virtual edge added).
+    pub split: usize,
+    /// Obtuse corners left to the safe fallback (no splitting vertex within
+    /// [`GeodesicParams::max_unfold_steps`](crate::GeodesicParams::max_unfold_steps), or the
+    /// unfolding hit a boundary or a non-manifold edge).
+    pub unsplit: usize,
+}
 
 /// Geometry of one face (x0, x1, x2): `len[i]` is the length of the edge opposite corner i,
 /// `dot[i]` the dot product of the two edge vectors leaving corner i, `det` = 4·area².
