@@ -2,7 +2,7 @@
 //! matrix time (K = 1 % of the vertices) with 1 and 2 threads, on synthetic meshes and on the
 //! shared real meshes when they can be read.
 //!
-//! `cargo run --release -p keycomp-geodesic --example geodesic_table`
+//! `cargo bench -p keycomp-geodesic --bench geodesic_table`
 
 use std::path::Path;
 use std::time::Instant;
@@ -55,7 +55,24 @@ fn row(name: &str, mesh: &Mesh) -> Result<String, Box<dyn std::error::Error>> {
     ))
 }
 
+/// The bench's command line, its name first, without the `--bench` flag `cargo bench` appends;
+/// `None` when `cargo bench` did not run it (`cargo test --benches` and `--all-targets` run
+/// bench targets too, and a measurement is no test).
+fn bench_args() -> Option<Vec<String>> {
+    let args: Vec<String> = std::env::args().collect();
+    if !args.iter().any(|a| a == "--bench") {
+        eprintln!(
+            "a measurement: run it with `cargo bench -p keycomp-geodesic --bench geodesic_table`"
+        );
+        return None;
+    }
+    Some(args.into_iter().filter(|a| a != "--bench").collect())
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
+    if bench_args().is_none() {
+        return Ok(());
+    }
     println!(
         "| mesh | vertices | faces | obtuse corners | build ms | solve ms (median of 5) | K | K×K ms, 1 thread | K×K ms, 2 threads |"
     );

@@ -2,7 +2,7 @@
 //! its vertices jittered by ±0, 0.2, 0.4, 0.8 mean edge lengths and projected back to the
 //! sphere, without splitting obtuse corners and splitting those above each given angle.
 //!
-//! `cargo run --release -p keycomp-geodesic --example geodesic_accuracy -- [angle...]`
+//! `cargo bench -p keycomp-geodesic --bench geodesic_accuracy -- [angle...]`
 
 use keycomp_geodesic::{GeodesicParams, GeodesicSolver};
 use keycomp_mesh::{Mesh, Topology, synth};
@@ -70,8 +70,26 @@ fn error(mesh: &Mesh, angle: f64, steps: usize) -> (f64, usize, usize) {
     (total, o.obtuse_corners, o.split)
 }
 
+/// The bench's command line, its name first, without the `--bench` flag `cargo bench` appends;
+/// `None` when `cargo bench` did not run it (`cargo test --benches` and `--all-targets` run
+/// bench targets too, and a measurement is no test).
+fn bench_args() -> Option<Vec<String>> {
+    let args: Vec<String> = std::env::args().collect();
+    if !args.iter().any(|a| a == "--bench") {
+        eprintln!(
+            "a measurement: run it with `cargo bench -p keycomp-geodesic --bench geodesic_accuracy`"
+        );
+        return None;
+    }
+    Some(args.into_iter().filter(|a| a != "--bench").collect())
+}
+
 fn main() {
-    let angles: Vec<f64> = std::env::args()
+    let Some(args) = bench_args() else {
+        return;
+    };
+    let angles: Vec<f64> = args
+        .iter()
         .skip(1)
         .map(|a| a.parse().expect("angle"))
         .collect();
