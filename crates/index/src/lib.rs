@@ -47,7 +47,6 @@ mod file;
 pub mod fuzzing;
 mod ivf;
 mod manifest;
-mod mapped;
 mod reader;
 mod record;
 mod segment;

@@ -53,12 +53,12 @@ use rayon::prelude::*;
 use kiddo::SquaredEuclidean;
 use kiddo::immutable::float::kdtree::ImmutableKdTree;
 
-use crate::dir::{MANIFEST_NAME, SEARCH_CACHE_NAME, segment_file_name};
+use crate::dir::{SEARCH_CACHE_NAME, segment_file_name};
 use crate::error::{IndexError, Result};
 use crate::ivf::{Ivf, Origin, SearchEffort};
 use crate::manifest::Manifest;
 use crate::record::{ShapeId, ShapeRecord, canonical_path};
-use crate::segment;
+use crate::segment::{self, MappedSegment};
 use crate::version::FORMAT_VERSION;
 
 /// A live shape of a snapshot.
@@ -174,149 +174,6 @@ struct Slot {
     segment: u32,
     /// Position in its segment.
     position: u32,
-}
-
-/// A format-5 segment read in place from a memory map (`crate::mapped`): its table and
-/// descriptor block were checked when opened, each record is checked when decoded.
-struct MappedSegment {
-    path: PathBuf,
-    map: memmap2::Mmap,
-    table: crate::mapped::Table,
-    /// The head (the shapes' paths), decoded on first use.
-    head: OnceLock<segment::SegmentHead>,
-}
-
-impl MappedSegment {
-    fn payload(&self) -> &[u8] {
-        &self.map[..self.map.len() - crate::file::FOOTER_LEN]
-    }
-
-    fn malformed(&self, msg: String) -> IndexError {
-        IndexError::corrupt(&self.path, crate::error::CorruptKind::Malformed(msg))
-    }
-
-    /// Maps the segment of `entry` if it is of format 5 and its block can be read in place;
-    /// `None` when it must be read whole instead (an older format, a big-endian machine).
-    fn open<const D: usize>(
-        dir: &Path,
-        manifest: &Manifest,
-        entry: &crate::manifest::SegmentEntry,
-    ) -> Result<Option<Self>> {
-        use crate::file::{self, KIND_SEGMENT};
-        let path = dir.join(segment_file_name(entry.number));
-        let f = match file::open_regular(&path) {
-            Ok(f) => f,
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-                return Err(IndexError::MissingSegment {
-                    manifest: dir.join(MANIFEST_NAME),
-                    segment: path,
-                });
-            }
-            Err(e) => return Err(IndexError::io("could not open", path, e)),
-        };
-        let len = f
-            .metadata()
-            .map_err(|e| IndexError::io("could not read the size of", &path, e))?
-            .len();
-        if len != entry.len {
-            let bytes =
-                file::read_all(&path).map_err(|e| IndexError::io("could not read", &path, e))?;
-            return Err(segment::length_mismatch(&path, &bytes, entry));
-        }
-        let map = file::map(&f, &path)?;
-        // The footer's fields without the checksum over the whole file; a field that fails
-        // (a version, a kind) may be a damaged byte: the full check then tells which.
-        let (checksum, version) =
-            match file::check_footer(&path, &map, KIND_SEGMENT, FORMAT_VERSION, false) {
-                Ok(v) => v,
-                Err(e) => {
-                    file::check_footer(&path, &map, KIND_SEGMENT, FORMAT_VERSION, true)?;
-                    return Err(e);
-                }
-            };
-        segment::check_listed(&path, checksum, entry)?;
-        if version < 5 {
-            return Ok(None);
-        }
-        let payload = &map[..map.len() - file::FOOTER_LEN];
-        let malformed =
-            |msg: String| IndexError::corrupt(&path, crate::error::CorruptKind::Malformed(msg));
-        let table = crate::mapped::parse(payload).map_err(malformed)?;
-        segment::check_ids(&path, table.entries.iter().map(|e| e.id), manifest, entry)?;
-        table.check_block(D).map_err(malformed)?;
-        if table.count != entry.components {
-            return Err(malformed(format!(
-                "{} components in the file, the manifest says {}",
-                table.count, entry.components
-            )));
-        }
-        if crate::mapped::block(payload, &table).is_none() {
-            return Ok(None);
-        }
-        Ok(Some(MappedSegment {
-            path,
-            map,
-            table,
-            head: OnceLock::new(),
-        }))
-    }
-
-    /// The descriptors of the record at `position`, in place.
-    fn descriptors(&self, position: usize, dim: usize) -> Option<&[f32]> {
-        let e = self.table.entries.get(position)?;
-        let block = crate::mapped::block(self.payload(), &self.table)?;
-        let start = e.first as usize * dim;
-        block.get(start..start + e.components as usize * dim)
-    }
-
-    /// Asks the system to start reading descriptor `component` of the record at `position`
-    /// (a hint, as [`MappedSegment::prefetch`]).
-    fn prefetch_descriptor(&self, position: usize, component: usize, dim: usize) {
-        #[cfg(unix)]
-        if let Some(e) = self.table.entries.get(position)
-            && component < e.components as usize
-        {
-            let offset = self.table.block.start + 4 * dim * (e.first as usize + component);
-            let _ = self
-                .map
-                .advise_range(memmap2::Advice::WillNeed, offset, 4 * dim);
-        }
-        #[cfg(not(unix))]
-        let _ = (position, component, dim);
-    }
-
-    /// Asks the system to start reading the descriptors of the record at `position`, and its
-    /// bytes if `record` (a hint: errors are of no consequence and ignored).
-    fn prefetch(&self, position: usize, dim: usize, record: bool) {
-        #[cfg(unix)]
-        if let Some(e) = self.table.entries.get(position) {
-            let advise = |offset: usize, len: usize| {
-                if len > 0 {
-                    let _ = self
-                        .map
-                        .advise_range(memmap2::Advice::WillNeed, offset, len);
-                }
-            };
-            if record {
-                advise(e.offset as usize, e.len as usize);
-            }
-            let first = 4 * dim * e.first as usize;
-            advise(
-                self.table.block.start + first,
-                4 * dim * e.components as usize,
-            );
-        }
-        #[cfg(not(unix))]
-        let _ = (position, dim, record);
-    }
-
-    fn head(&self) -> Result<&segment::SegmentHead> {
-        if let Some(h) = self.head.get() {
-            return Ok(h);
-        }
-        let h = crate::mapped::head(self.payload(), &self.table).map_err(|m| self.malformed(m))?;
-        Ok(self.head.get_or_init(|| h))
-    }
 }
 
 /// How [`IndexReader::nearest_components`] searches.
@@ -457,7 +314,7 @@ impl<const D: usize> IndexReader<D> {
             match seg? {
                 Opened::Mapped(m) => {
                     let index = u32::try_from(mapped.len()).unwrap_or(DECODED - 1);
-                    for (position, e) in m.table.entries.iter().enumerate() {
+                    for (position, e) in m.entries().iter().enumerate() {
                         if !manifest.is_tombstoned(e.id) {
                             let slot = Slot {
                                 id: e.id,
@@ -735,9 +592,7 @@ impl<const D: usize> IndexReader<D> {
         }
         let slot = self.slots[i];
         let m = self.mapped_of(slot)?;
-        crate::mapped::record::<D>(m.payload(), &m.table, slot.position as usize)
-            .map(Arc::new)
-            .map_err(|msg| m.malformed(msg))
+        m.record::<D>(slot.position as usize).map(Arc::new)
     }
 
     /// The mapped segment of `slot`, a slot without a record (which points into one).

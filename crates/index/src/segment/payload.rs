@@ -29,7 +29,8 @@ use xxhash_rust::xxh3::{Xxh3Default, xxh3_64};
 
 use crate::codec::{bincode_config, decode_bounded, le_u32, le_u64, put_u64};
 use crate::record::{ComponentRecord, ContentHash, ShapeId, ShapeRecord};
-use crate::segment::SegmentHead;
+
+use super::head::SegmentHead;
 
 /// Bytes before the table.
 pub(crate) const PREFIX_LEN: usize = 64;
@@ -496,7 +497,7 @@ fn parse_unchecked(payload: &mut [u8]) -> Result<Table, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::segment::CatalogueEntry;
+    use crate::segment::head::CatalogueEntry;
     use crate::synthetic;
 
     fn head_of<const D: usize>(recs: &[ShapeRecord<D>], first_id: u64) -> SegmentHead {

@@ -1,44 +1,33 @@
-//! Segment files (`seg-NNNNNN.kcs`): an immutable batch of shape records.
+//! Segment files (`seg-NNNNNN.kcs`): an immutable batch of shape records, written once and
+//! never changed.
 //!
-//! Payload (bincode 2, fixed-width little-endian integers; byte layout in `index/README.md` at the workspace root):
-//! a [`SegmentHead`] (descriptor length, segment number, and a catalogue of id, canonical path,
-//! content hash per shape) followed by the `Vec` of [`ShapeRecord`]s in catalogue order. The
-//! head alone is enough for a writer deciding skip/replace, so it is decoded without the
-//! records.
+//! A segment's payload starts with its [`SegmentHead`] (descriptor length, segment number, and
+//! a catalogue of id, canonical path and content hash per shape). This build writes format 5
+//! ([`payload`]): a fixed-width table and a block of descriptors that a reader uses in place
+//! from a memory map ([`MappedSegment`]), then the records, each with its own checksum. Formats
+//! 1 to 4 ([`legacy`]) hold one bincode `Vec` of records after the head; they are read,
+//! never written. Every segment read is checked against the manifest entry that lists it
+//! ([`check`]). The byte layout is in `index/README.md` at the workspace root, *Segment files*.
+
+mod check;
+mod head;
+mod legacy;
+mod mapped;
+mod payload;
 
 use std::path::{Path, PathBuf};
 
-use serde::{Deserialize, Serialize};
+pub(crate) use head::{CatalogueEntry, SegmentHead, dim_u32};
+pub(crate) use mapped::MappedSegment;
 
-use crate::codec::decode_bounded;
 use crate::dir::{MANIFEST_NAME, segment_file_name};
 use crate::error::{CorruptKind, IndexError, Result};
 use crate::file::{self, KIND_SEGMENT};
 use crate::manifest::{Manifest, SegmentEntry};
-use crate::record::{ContentHash, ShapeId, ShapeRecord, ShapeRecordV2, ShapeRecordV3};
+use crate::record::{ShapeId, ShapeRecord};
 use crate::version::FORMAT_VERSION;
 
-/// Catalogue entry of one shape in a segment head.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
-pub struct CatalogueEntry {
-    /// The shape's id.
-    pub id: ShapeId,
-    /// The shape's canonical path (its identity for skip/replace).
-    pub canonical_path: String,
-    /// Hash of the source file.
-    pub content_hash: ContentHash,
-}
-
-/// The first part of a segment payload.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
-pub struct SegmentHead {
-    /// Descriptor length `D`.
-    pub dim: u32,
-    /// The segment's number (must match its file name and manifest entry).
-    pub number: u64,
-    /// One entry per shape, ids strictly increasing.
-    pub catalogue: Vec<CatalogueEntry>,
-}
+use check::{check_head, check_listed, check_records, length_mismatch};
 
 /// A fully decoded segment.
 #[derive(Debug)]
@@ -69,24 +58,19 @@ pub fn encode<const D: usize>(
             .collect(),
     };
     let payload =
-        crate::mapped::encode::<D>(&head, records).map_err(|reason| IndexError::InvalidRecord {
+        payload::encode::<D>(&head, records).map_err(|reason| IndexError::InvalidRecord {
             path: PathBuf::from(segment_file_name(number)),
             reason,
         })?;
     Ok(file::seal(payload, KIND_SEGMENT, FORMAT_VERSION))
 }
 
-/// `D` as stored on disk.
-pub(crate) fn dim_u32<const D: usize>() -> u32 {
-    u32::try_from(D).unwrap_or(u32::MAX)
-}
-
 /// Where the records of a checked segment are.
 pub(crate) enum Rest {
     /// Formats 1 to 4: one bincode `Vec` of records from this payload offset on.
     Bincode(usize),
-    /// Format 5: the table ([`crate::mapped`]).
-    Table(crate::mapped::Table),
+    /// Format 5: the table ([`payload`]).
+    Table(payload::Table),
 }
 
 /// Reads a segment file listed in `manifest`, checks it against `entry` and its own footer,
@@ -117,35 +101,6 @@ fn open_checked(
     Ok((opened, head, rest, path))
 }
 
-/// The error for a segment file of another length than its manifest entry's: a damaged
-/// footer if there is one, a length mismatch otherwise.
-pub(crate) fn length_mismatch(path: &Path, bytes: &[u8], entry: &SegmentEntry) -> IndexError {
-    match file::check_footer(path, bytes, KIND_SEGMENT, FORMAT_VERSION, true) {
-        Err(e) => e,
-        Ok(_) => IndexError::corrupt(
-            path,
-            CorruptKind::LengthMismatch {
-                expected: entry.len,
-                actual: bytes.len() as u64,
-            },
-        ),
-    }
-}
-
-/// Checks that the footer's `checksum` is the one the manifest lists for the segment.
-pub(crate) fn check_listed(path: &Path, checksum: u64, entry: &SegmentEntry) -> Result<()> {
-    if checksum != entry.checksum {
-        return Err(IndexError::corrupt(
-            path,
-            CorruptKind::NotTheListedFile {
-                expected: entry.checksum,
-                found: checksum,
-            },
-        ));
-    }
-    Ok(())
-}
-
 /// Decodes the head of a segment `payload` of format `version` and checks it against the
 /// manifest and the segment's entry; returns it and where the records are.
 pub(crate) fn head_of(
@@ -157,75 +112,17 @@ pub(crate) fn head_of(
 ) -> Result<(SegmentHead, Rest)> {
     let malformed = |msg: String| IndexError::corrupt(path, CorruptKind::Malformed(msg));
     if version >= 5 {
-        let table = crate::mapped::parse(payload).map_err(malformed)?;
-        let head = crate::mapped::head(payload, &table).map_err(malformed)?;
+        let table = payload::parse(payload).map_err(malformed)?;
+        let head = payload::head(payload, &table).map_err(malformed)?;
         check_head(path, &head, manifest, entry)?;
         table
             .check_block(manifest.dim as usize)
             .map_err(malformed)?;
         return Ok((head, Rest::Table(table)));
     }
-    let (head, used): (SegmentHead, usize) =
-        decode_bounded(payload).map_err(|e| malformed(format!("segment head: {e}")))?;
+    let (head, used) = legacy::head(payload).map_err(malformed)?;
     check_head(path, &head, manifest, entry)?;
     Ok((head, Rest::Bincode(used)))
-}
-
-/// Checks a segment's head against the manifest and the segment's entry.
-pub(crate) fn check_head(
-    path: &Path,
-    head: &SegmentHead,
-    manifest: &Manifest,
-    entry: &SegmentEntry,
-) -> Result<()> {
-    let malformed = |msg: String| IndexError::corrupt(path, CorruptKind::Malformed(msg));
-    if head.dim != manifest.dim {
-        return Err(IndexError::DimensionMismatch {
-            path: path.to_path_buf(),
-            found: head.dim,
-            expected: manifest.dim,
-        });
-    }
-    if head.number != entry.number {
-        return Err(malformed(format!(
-            "the head says segment {}, the file name says {}",
-            head.number, entry.number
-        )));
-    }
-    check_ids(path, head.catalogue.iter().map(|c| c.id), manifest, entry)
-}
-
-/// Checks the ids a segment lists: as many as its entry says, at least one, increasing, below
-/// the manifest's counter.
-pub(crate) fn check_ids(
-    path: &Path,
-    ids: impl ExactSizeIterator<Item = ShapeId>,
-    manifest: &Manifest,
-    entry: &SegmentEntry,
-) -> Result<()> {
-    let malformed = |msg: String| IndexError::corrupt(path, CorruptKind::Malformed(msg));
-    if ids.len() as u64 != entry.shapes {
-        return Err(malformed(format!(
-            "{} shapes in the file, the manifest says {}",
-            ids.len(),
-            entry.shapes
-        )));
-    }
-    let mut last: Option<ShapeId> = None;
-    for id in ids {
-        if last.is_some_and(|l| l >= id) {
-            return Err(malformed("shape ids are not increasing".into()));
-        }
-        last = Some(id);
-    }
-    match last {
-        None => Err(malformed("the segment holds no shape".into())),
-        Some(id) if id.0 >= manifest.next_shape_id => Err(malformed(format!(
-            "shape id {id} is beyond the manifest's counter {}",
-            manifest.next_shape_id
-        ))),
-        Some(_) => Ok(()),
-    }
 }
 
 /// Reads only the head of a segment listed in `manifest` (all checksums are still verified).
@@ -274,71 +171,15 @@ fn decode_records<const D: usize>(
     let rest = match rest {
         Rest::Table(table) => {
             let records = (0..table.entries.len())
-                .map(|i| crate::mapped::record::<D>(payload, &table, i))
+                .map(|i| payload::record::<D>(payload, &table, i))
                 .collect::<std::result::Result<Vec<_>, String>>()
                 .map_err(malformed)?;
             return check_records(path, records, head, expected);
         }
         Rest::Bincode(used) => &payload[used..],
     };
-    let decoded = if version <= 2 {
-        decode_bounded::<Vec<ShapeRecordV2<D>>>(rest)
-            .map(|(r, used)| (r.into_iter().map(ShapeRecord::from).collect(), used))
-    } else if version == 3 {
-        decode_bounded::<Vec<ShapeRecordV3<D>>>(rest)
-            .map(|(r, used)| (r.into_iter().map(ShapeRecord::from).collect(), used))
-    } else {
-        decode_bounded(rest)
-    };
-    let (records, used2): (Vec<ShapeRecord<D>>, usize) =
-        decoded.map_err(|e| malformed(format!("records: {e}")))?;
-    if used2 != rest.len() {
-        return Err(malformed(format!(
-            "{} unexpected bytes after the records",
-            rest.len() - used2
-        )));
-    }
+    let records = legacy::records::<D>(rest, version).map_err(malformed)?;
     check_records(path, records, head, expected)
-}
-
-/// Checks decoded records against their segment's head (one per catalogue entry, with its
-/// path and hash, each valid) and the component count `expected`.
-fn check_records<const D: usize>(
-    path: &Path,
-    records: Vec<ShapeRecord<D>>,
-    head: &SegmentHead,
-    expected: Option<u64>,
-) -> Result<Vec<ShapeRecord<D>>> {
-    let malformed = |msg: String| IndexError::corrupt(path, CorruptKind::Malformed(msg));
-    if records.len() != head.catalogue.len() {
-        return Err(malformed(format!(
-            "{} records for {} catalogue entries",
-            records.len(),
-            head.catalogue.len()
-        )));
-    }
-    let mut components = 0u64;
-    for (r, c) in records.iter().zip(&head.catalogue) {
-        if r.canonical_path.to_str() != Some(c.canonical_path.as_str())
-            || r.content_hash != c.content_hash
-        {
-            return Err(malformed(format!(
-                "record of shape {} does not match its catalogue entry",
-                c.id
-            )));
-        }
-        r.validate()
-            .map_err(|e| malformed(format!("shape {}: {e}", c.id)))?;
-        components += r.components.len() as u64;
-    }
-    if let Some(listed) = expected
-        && components != listed
-    {
-        return Err(malformed(format!(
-            "{components} components in the file, the manifest says {listed}"
-        )));
-    }
-    Ok(records)
 }
 
 /// Decodes and checks a whole segment payload (the file without its footer, whose checksum is
@@ -348,8 +189,8 @@ fn check_records<const D: usize>(
 pub fn decode_unsealed<const D: usize>(payload: &[u8]) -> Result<Segment<D>> {
     let path = Path::new("fuzzed-segment");
     let malformed = |msg: String| IndexError::corrupt(path, CorruptKind::Malformed(msg));
-    let table = crate::mapped::parse(payload).map_err(malformed)?;
-    let head = crate::mapped::head(payload, &table).map_err(malformed)?;
+    let table = payload::parse(payload).map_err(malformed)?;
+    let head = payload::head(payload, &table).map_err(malformed)?;
     let mut manifest = Manifest::empty(dim_u32::<D>());
     manifest.next_shape_id = head
         .catalogue
@@ -414,7 +255,7 @@ mod tests {
             for huge in [u64::MAX, 1 << 40, 1 << 33] {
                 let m = write_patched::<D>(dir.path(), &recs, |p| {
                     p[at..at + 8].copy_from_slice(&huge.to_le_bytes());
-                    crate::mapped::refresh_checksums(p, D);
+                    payload::refresh_checksums(p, D);
                 });
                 // Some windows fall on values any bytes can hold (descriptor floats): those
                 // decode. What matters is that none panics or allocates its length.
@@ -429,10 +270,10 @@ mod tests {
         );
         // The catalogue's first path length (after the prefix, the table, then dim, number,
         // count and id): named in the message as a limit, not a failed allocation.
-        let at = crate::mapped::PREFIX_LEN + 2 * crate::mapped::ENTRY_LEN + 28;
+        let at = payload::PREFIX_LEN + 2 * payload::ENTRY_LEN + 28;
         let m = write_patched::<D>(dir.path(), &recs, |p| {
             p[at..at + 8].copy_from_slice(&(1u64 << 50).to_le_bytes());
-            crate::mapped::refresh_checksums(p, D);
+            payload::refresh_checksums(p, D);
         });
         let e = read::<D>(dir.path(), &m, &m.segments[0]).unwrap_err();
         assert!(matches!(e, IndexError::Corrupt { .. }), "{e}");
@@ -497,7 +338,7 @@ mod tests {
         let ids = [ShapeId(4), ShapeId(5), ShapeId(6)];
         let (bytes, _) = encode::<D>(7, &ids, &recs).unwrap();
         let string = |s: &std::path::Path| 8 + s.to_str().unwrap().len();
-        let mut want = crate::mapped::PREFIX_LEN + 3 * crate::mapped::ENTRY_LEN;
+        let mut want = payload::PREFIX_LEN + 3 * payload::ENTRY_LEN;
         want += 4 + 8 + 8; // head: dim, number, catalogue count
         for r in &recs {
             want += 8 + string(&r.canonical_path) + 16;
