@@ -25,7 +25,7 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::error::{Result, SpectralError};
 use crate::laplacian::Laplacian;
-use crate::spectrum::{Method, SpectrumParams};
+use crate::params::{Method, SpectrumParams};
 
 /// Up to this many unknowns the problem is solved densely (symmetric eigensolver on
 /// `M^{-1/2} W M^{-1/2}`): faster than Lanczos at this size, and exact.

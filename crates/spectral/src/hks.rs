@@ -136,7 +136,7 @@ pub fn hks_keypoints(mesh: &Mesh, topo: &Topology, hks: &[f64]) -> Result<Vec<Ve
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::SpectrumParams;
+    use crate::params::SpectrumParams;
     use keycomp_mesh::{Point3, synth};
 
     #[test]

@@ -31,9 +31,11 @@ mod eigen;
 mod error;
 pub mod hks;
 pub mod laplacian;
+mod params;
 pub mod spectrum;
 
 pub use error::{Result, SpectralError};
 pub use hks::{hks_keypoints, paper_time};
 pub use laplacian::Laplacian;
-pub use spectrum::{Method, SolveStats, Spectrum, SpectrumParams};
+pub use params::{Method, SpectrumParams};
+pub use spectrum::{SolveStats, Spectrum};
