@@ -2,7 +2,7 @@
 //! vertices, eigenpairs, factorisation, Lanczos and total time, restarts, worst residual.
 //!
 //! ```text
-//! cargo run --release -p keycomp-spectral --example spectrum_timing [COUNT ...]
+//! cargo bench -p keycomp-spectral --bench spectrum_timing -- [COUNT ...]
 //! ```
 //!
 //! Real meshes are read from `../shared/data` (relative to the workspace root) and skipped
@@ -13,11 +13,25 @@ use std::path::Path;
 use keycomp_mesh::{Mesh, read_mesh, synth};
 use keycomp_spectral::{Spectrum, SpectrumParams};
 
+/// The bench's command line, its name first, without the `--bench` flag `cargo bench` appends;
+/// `None` when `cargo bench` did not run it (`cargo test --benches` and `--all-targets` run
+/// bench targets too, and a measurement is no test).
+fn bench_args() -> Option<Vec<String>> {
+    let args: Vec<String> = std::env::args().collect();
+    if !args.iter().any(|a| a == "--bench") {
+        eprintln!(
+            "a measurement: run it with `cargo bench -p keycomp-spectral --bench spectrum_timing`"
+        );
+        return None;
+    }
+    Some(args.into_iter().filter(|a| a != "--bench").collect())
+}
+
 fn main() {
-    let counts: Vec<usize> = std::env::args()
-        .skip(1)
-        .filter_map(|a| a.parse().ok())
-        .collect();
+    let Some(args) = bench_args() else {
+        return;
+    };
+    let counts: Vec<usize> = args.iter().skip(1).filter_map(|a| a.parse().ok()).collect();
     let counts = if counts.is_empty() {
         vec![100, 200]
     } else {
