@@ -92,5 +92,6 @@ pub use params::{
     MAX_SMOOTHING_ITERATIONS, Units,
 };
 
-/// Taubin λ|μ smoothing, now in `keycomp_mesh` (re-exported here for existing callers).
+/// Taubin λ|μ smoothing (`keycomp_mesh::smooth`), with which the described surface is smoothed
+/// (see *Smoothing*).
 pub use keycomp_mesh::smooth;
