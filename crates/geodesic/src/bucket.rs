@@ -1,5 +1,6 @@
-//! Monotone bucket queues for the fast-marching front, and the [`FrontQueue`] interface the
-//! solver's loop is generic over (the indexed heap of [`crate::heap`] implements it too).
+//! Monotone bucket queues for the fast-marching front, options to the indexed heap of
+//! [`crate::heap`]; both implement [`FrontQueue`], the interface the solver's loop is generic
+//! over.
 //!
 //! Fast marching pops tentative values in non-decreasing order, and every value it inserts lies
 //! within a bounded *span* above the value just popped (an edge update adds `|xp|`, a two-point
@@ -37,16 +38,7 @@
 //! untidy mode runs 11–13 % fewer instructions but only 0–10 % fewer cycles (the front is bound
 //! by memory latency, not by the queue). Neither is the default.
 
-/// The priority queue of a front: insert-or-lower and pop-min, keys ≥ 0.
-pub(crate) trait FrontQueue {
-    /// Records that `v` has the tentative value `key`, lower than any value it had before.
-    fn push(&mut self, key: f64, v: u32);
-    /// Removes an entry with the smallest key (exact queues) or a key in the smallest
-    /// non-empty bucket (untidy queue). May return *stale* entries — a vertex with a key it has
-    /// since lowered, or a vertex already popped — which the caller must skip: a stale entry's
-    /// key differs from the vertex's current value.
-    fn pop(&mut self) -> Option<(f64, u32)>;
-}
+use crate::queue::FrontQueue;
 
 /// Largest number of buckets: beyond it the bucket width grows instead (see
 /// [`BucketQueue::configure`]), so that the array stays within the first levels of cache.

@@ -12,6 +12,8 @@
 //! Push / decrease-key O(log₄ m), pop O(4 log₄ m), m = entries in the heap. Ties are broken
 //! by position, deterministically.
 
+use crate::queue::FrontQueue;
+
 /// Marks a vertex that is not in the heap.
 const NONE: u32 = u32::MAX;
 /// Children per node.
@@ -112,7 +114,7 @@ impl IndexedHeap {
     }
 }
 
-impl crate::bucket::FrontQueue for IndexedHeap {
+impl FrontQueue for IndexedHeap {
     #[inline(always)]
     fn push(&mut self, key: f64, v: u32) {
         self.push_or_decrease(key, v);

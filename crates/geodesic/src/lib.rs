@@ -159,6 +159,7 @@ mod bucket;
 mod error;
 mod heap;
 pub mod matrix;
+mod queue;
 mod solver;
 mod unfold;
 

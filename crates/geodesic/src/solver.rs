@@ -18,9 +18,10 @@
 
 use keycomp_mesh::{Mesh, Topology, VertexId};
 
-use crate::bucket::{BucketQueue, FrontQueue};
+use crate::bucket::BucketQueue;
 use crate::error::GeodesicError;
 use crate::heap::IndexedHeap;
+use crate::queue::FrontQueue;
 use crate::unfold::{self, ObtuseStats};
 
 /// Parameters of [`GeodesicSolver`].
