@@ -1,6 +1,8 @@
 //! Times every transformation at every strength on a mesh and prints a table.
 //!
-//! `cargo run --release -p keycomp-bench --example transform_times -- ../shared/data/kids/0001.null.0.off`
+//! `cargo bench -p keycomp-bench --bench transform_times -- ../shared/data/kids/0001.null.0.off`
+//! (the `--bench` flag that `cargo bench` passes is ignored; without a mesh it prints its usage
+//! and measures nothing)
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -9,10 +11,12 @@ use keycomp_bench::{Kind, Pullback, transform};
 use keycomp_mesh::{Topology, read_mesh};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let path = std::env::args_os()
-        .nth(1)
-        .map(PathBuf::from)
-        .ok_or("usage: transform_times MESH")?;
+    // `cargo bench` adds `--bench`
+    let Some(path) = std::env::args_os().skip(1).find(|a| a != "--bench") else {
+        eprintln!("usage: cargo bench -p keycomp-bench --bench transform_times -- MESH");
+        return Ok(());
+    };
+    let path = PathBuf::from(path);
     let null = read_mesh(&path)?.mesh;
     let topo = Topology::new(&null);
     println!(
