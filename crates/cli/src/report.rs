@@ -245,36 +245,7 @@ pub fn write_report(
             );
         }
     }
-    let name = dir
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "report".into());
-    let parent = match dir.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    let tmp = parent.join(format!(".{name}.tmp-{}", std::process::id()));
-    if tmp.exists() {
-        std::fs::remove_dir_all(&tmp)
-            .with_context(|| format!("{}: cannot remove a stale temporary", tmp.display()))?;
-    }
-    std::fs::create_dir(&tmp)
-        .with_context(|| format!("{}: cannot create the directory", tmp.display()))?;
-    let built = build(&tmp, reader, entries, params);
-    if let Err(e) = built {
-        let _ = std::fs::remove_dir_all(&tmp);
-        return Err(e);
-    }
-    let old = parent.join(format!(".{name}.old-{}", std::process::id()));
-    if dir.exists() {
-        std::fs::rename(dir, &old)
-            .with_context(|| format!("{}: cannot move the old report aside", dir.display()))?;
-    }
-    std::fs::rename(&tmp, dir)
-        .with_context(|| format!("{}: cannot move the new report into place", dir.display()))?;
-    if old.exists() {
-        let _ = std::fs::remove_dir_all(&old);
-    }
+    keycomp::folders::replace_folder(dir, |tmp| build(tmp, reader, entries, params))?;
     Ok(dir.join("index.html"))
 }
 

@@ -3,7 +3,6 @@
 //! on-disk index of the records in `OUT/index`.
 
 use std::collections::HashMap;
-use std::fs;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
@@ -95,21 +94,11 @@ pub(super) fn fresh_index(
 ) -> Result<(Reader, HashMap<PathBuf, usize>)> {
     let n = files.len();
     let index_dir = out.join("index");
-    let tmp_dir = out.join(format!(".index-{}", std::process::id()));
-    if tmp_dir.exists() {
-        fs::remove_dir_all(&tmp_dir)
-            .with_context(|| format!("{}: cannot remove", tmp_dir.display()))?;
-    }
-    {
-        let mut w = open_writer(&tmp_dir, params)?;
+    keycomp::folders::replace_folder(&index_dir, |tmp| -> Result<()> {
+        let mut w = open_writer(tmp, params)?;
         w.add_batch(records.to_vec())?;
-    }
-    if index_dir.exists() {
-        fs::remove_dir_all(&index_dir)
-            .with_context(|| format!("{}: cannot replace", index_dir.display()))?;
-    }
-    fs::rename(&tmp_dir, &index_dir)
-        .with_context(|| format!("{}: cannot write", index_dir.display()))?;
+        Ok(())
+    })?;
     let reader = Reader::open(&index_dir)?;
     let index_of: HashMap<PathBuf, usize> = reader
         .shapes()?

@@ -94,10 +94,7 @@ pub(super) fn queries(s: &Setting<'_>, kinds: &[PartialKind]) -> Result<Partial>
                     format!("{}: cannot cut a {kind} fragment", files[src].display())
                 })?;
                 let path = frag_dir.join(format!("{kind}-{q:03}-{}.off", names[src]));
-                let tmp = path.with_extension("off.tmp");
-                keycomp_mesh::write_off(&frag.mesh, &tmp)?;
-                fs::rename(&tmp, &path)
-                    .with_context(|| format!("{}: cannot write", path.display()))?;
+                keycomp_mesh::write_off(&frag.mesh, &path)?;
                 let descriptors = baselines
                     .iter()
                     .map(|b| {
