@@ -1,11 +1,19 @@
 //! On-disk cache of [`Embedded`] detections (keypoints + SMACOF points), keyed by content.
 //!
-//! **Key.** A 128-bit XXH3 hash of: a domain tag, [`CACHE_VERSION`], [`DETECTION_VERSION`],
-//! the mesh's vertex count, every coordinate's bits, the face count and every face, and the
-//! JSON of the Harris, SMACOF and geodesic parameters (full mesh or proxy, split angle). Two shapes with the same key have the same
-//! positions, faces and parameters, so the cached stage-1 result is theirs. A change of the
-//! detection code that changes results must bump [`DETECTION_VERSION`] (old entries are then
-//! never looked up again; delete the folder to reclaim the space).
+//! The detection caches of the benchmarks: stage-1 detections here ([`EmbeddingCache`]), MSER
+//! detections beside them, and the analysed records of `keycomp bench retrieval` (in the
+//! command line's crate) all live in a [`CacheFolder`], with one key rule and one invalidation
+//! rule.
+//!
+//! **Key.** A 128-bit XXH3 hash of: a domain tag, [`CACHE_VERSION`], the running program's
+//! identity ([`program_hash`], the XXH3-128 of the executable's bytes), then the entry's own
+//! content (here the mesh's vertex count, every coordinate's bits, the face count and every face,
+//! and the JSON of the Harris, SMACOF and geodesic parameters: full mesh or proxy, split angle).
+//! Two lookups with the same key ran the same program on the same positions, faces and
+//! parameters, so a cached result is theirs. Any rebuild of the program that changes its bytes
+//! invalidates every entry (old entries are never looked up again; delete the folder to reclaim
+//! the space), so a change of the detection code cannot be served stale results. When the
+//! executable cannot be read, nothing is cached.
 //!
 //! **File** `<dir>/<key as 32 hex digits>.emb`, little endian:
 //!
@@ -17,16 +25,15 @@
 //! MSER detections (`keycomp_mser`, for the methods `mser` and `mser-kc`) are cached in the same
 //! folder as `<key>.msr` files: [`mser_cache_key`], [`EmbeddingCache::load_mser`].
 //!
-//! Writes are atomic (temporary file in the same folder, `sync_data`, rename), so readers see a
-//! whole entry or none. Reading checks both magics, both versions, the checksum, the key, the
+//! Writes are atomic ([`keycomp_mesh::io::output::write_file`]: a temporary file in the same
+//! folder, synced, renamed over the entry), so readers see a whole entry or none. Reading checks both magics, both versions, the checksum, the key, the
 //! length, that every keypoint is a vertex of the mesh and that every point is finite; an entry
 //! failing any check is reported as [`Lookup::Corrupt`] and the caller recomputes and overwrites
 //! it.
 
 use std::fs;
-use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::OnceLock;
 
 use keycomp_components::{GeodesicOptions, SmacofParams};
 use keycomp_harris::HarrisParams;
@@ -40,9 +47,76 @@ use crate::staged::Embedded;
 /// Version of the cache file layout.
 pub const CACHE_VERSION: u32 = 1;
 
-/// Version of the detection code whose results are cached: the package version and a counter
-/// bumped whenever Harris, fast marching or SMACOF change their results.
-pub const DETECTION_VERSION: &str = concat!(env!("CARGO_PKG_VERSION"), "+det1");
+/// The identity of the running program: the XXH3-128 hash of its executable's bytes, read
+/// once; `None` when the executable cannot be read (then nothing is cached).
+pub fn program_hash() -> Option<u128> {
+    static HASH: OnceLock<Option<u128>> = OnceLock::new();
+    *HASH.get_or_init(|| {
+        let exe = std::env::current_exe().ok()?;
+        fs::read(exe).ok().map(|b| xxhash_rust::xxh3::xxh3_128(&b))
+    })
+}
+
+/// A hasher for a cache key: the domain `tag`, [`CACHE_VERSION`] and the [`program_hash`] fed
+/// first; `None` when the program's identity is unknown (nothing is then cached).
+pub fn key_hasher(tag: &[u8]) -> Option<Xxh3> {
+    let program = program_hash()?;
+    let mut h = Xxh3::new();
+    h.update(tag);
+    h.update(b"\0");
+    h.update(&CACHE_VERSION.to_le_bytes());
+    h.update(&program.to_le_bytes());
+    Some(h)
+}
+
+/// A folder of cache entries, one file per key (`<key as 32 hex digits>.<extension>`), created
+/// on the first write. Entries are written atomically and read whole; an entry that cannot be
+/// read is a miss for the caller to recompute and overwrite.
+#[derive(Debug, Clone)]
+pub struct CacheFolder {
+    dir: PathBuf,
+}
+
+impl CacheFolder {
+    /// The cache in `dir`.
+    pub fn new(dir: impl Into<PathBuf>) -> CacheFolder {
+        CacheFolder { dir: dir.into() }
+    }
+
+    /// The folder.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// The file of the entry `key` with `extension`.
+    pub fn path(&self, key: u128, extension: &str) -> PathBuf {
+        self.dir.join(format!("{key:032x}.{extension}"))
+    }
+
+    /// The bytes of the entry: [`Lookup::Miss`] without one, [`Lookup::Corrupt`] when it
+    /// cannot be read.
+    pub fn read(&self, key: u128, extension: &str) -> Lookup<Vec<u8>> {
+        match fs::read(self.path(key, extension)) {
+            Ok(bytes) => Lookup::Hit(bytes),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Lookup::Miss,
+            Err(_) => Lookup::Corrupt,
+        }
+    }
+
+    /// Writes the entry atomically ([`keycomp_mesh::io::output::write_file`]), creating the
+    /// folder if needed.
+    ///
+    /// Errors: [`BenchError::Io`] with the folder or file.
+    pub fn write(&self, key: u128, extension: &str, bytes: &[u8]) -> Result<(), BenchError> {
+        fs::create_dir_all(&self.dir).map_err(|source| BenchError::Io {
+            path: self.dir.clone(),
+            source,
+        })?;
+        let path = self.path(key, extension);
+        keycomp_mesh::io::output::write_file(&path, |w| w.write_all(bytes))
+            .map_err(|source| BenchError::Io { path, source })
+    }
+}
 
 const MAGIC: &[u8; 8] = b"KCEMBED\0";
 const HEADER: usize = 8 + 4 + 16 + 4;
@@ -65,17 +139,14 @@ fn hash_mesh(h: &mut Xxh3, mesh: &Mesh) {
 }
 
 /// The content key of a stage-1 detection of `mesh` with these parameters (see the
-/// [module docs](self)).
+/// [module docs](self)); `None` when the program's identity is unknown.
 pub fn cache_key(
     mesh: &Mesh,
     harris: &HarrisParams,
     smacof: &SmacofParams,
     geodesic: &GeodesicOptions,
-) -> u128 {
-    let mut h = Xxh3::new();
-    h.update(b"keycomp-embedding\0");
-    h.update(&CACHE_VERSION.to_le_bytes());
-    h.update(DETECTION_VERSION.as_bytes());
+) -> Option<u128> {
+    let mut h = key_hasher(b"keycomp-embedding")?;
     hash_mesh(&mut h, mesh);
     // serialising plain parameter structs cannot fail; an empty string would still be a key
     h.update(serde_json::to_string(harris).unwrap_or_default().as_bytes());
@@ -87,7 +158,7 @@ pub fn cache_key(
             .unwrap_or_default()
             .as_bytes(),
     );
-    h.digest128()
+    Some(h.digest128())
 }
 
 /// The outcome of [`EmbeddingCache::load`] (and, with [`MserEntry`], of
@@ -105,33 +176,31 @@ pub enum Lookup<T = Embedded> {
 /// A folder of cached stage-1 detections.
 #[derive(Debug, Clone)]
 pub struct EmbeddingCache {
-    dir: PathBuf,
+    folder: CacheFolder,
 }
-
-static TEMP_COUNTER: AtomicU64 = AtomicU64::new(0);
 
 impl EmbeddingCache {
     /// A cache in `dir` (created on the first [`store`](Self::store)).
     pub fn new(dir: impl Into<PathBuf>) -> EmbeddingCache {
-        EmbeddingCache { dir: dir.into() }
+        EmbeddingCache {
+            folder: CacheFolder::new(dir),
+        }
     }
 
     /// The folder.
     pub fn dir(&self) -> &Path {
-        &self.dir
-    }
-
-    fn path(&self, key: u128) -> PathBuf {
-        self.dir.join(format!("{key:032x}.emb"))
+        self.folder.dir()
     }
 
     /// Looks `key` up for a mesh of `num_vertices` vertices. Never fails: unreadable or invalid
     /// entries are [`Lookup::Corrupt`].
     pub fn load(&self, key: u128, num_vertices: usize) -> Lookup {
-        match fs::read(self.path(key)) {
-            Ok(bytes) => decode(&bytes, key, num_vertices).map_or(Lookup::Corrupt, Lookup::Hit),
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Lookup::Miss,
-            Err(_) => Lookup::Corrupt,
+        match self.folder.read(key, "emb") {
+            Lookup::Hit(bytes) => {
+                decode(&bytes, key, num_vertices).map_or(Lookup::Corrupt, Lookup::Hit)
+            }
+            Lookup::Miss => Lookup::Miss,
+            Lookup::Corrupt => Lookup::Corrupt,
         }
     }
 
@@ -139,35 +208,7 @@ impl EmbeddingCache {
     ///
     /// Errors: [`BenchError::Io`] with the folder or file.
     pub fn store(&self, key: u128, embedded: &Embedded) -> Result<(), BenchError> {
-        self.write_entry(
-            self.path(key),
-            &format!("{key:032x}"),
-            &encode(key, embedded),
-        )
-    }
-
-    /// Writes `bytes` to `path` in the cache folder through a temporary file named after
-    /// `stem`, fsync and rename (see the [module docs](self)).
-    fn write_entry(&self, path: PathBuf, stem: &str, bytes: &[u8]) -> Result<(), BenchError> {
-        fs::create_dir_all(&self.dir).map_err(|source| BenchError::Io {
-            path: self.dir.clone(),
-            source,
-        })?;
-        let tmp = self.dir.join(format!(
-            ".{stem}.{}.{}.tmp",
-            std::process::id(),
-            TEMP_COUNTER.fetch_add(1, Ordering::Relaxed)
-        ));
-        let result = (|| -> std::io::Result<()> {
-            let mut f = fs::File::create(&tmp)?;
-            f.write_all(bytes)?;
-            f.sync_data()?;
-            fs::rename(&tmp, &path)
-        })();
-        if result.is_err() {
-            let _ = fs::remove_file(&tmp);
-        }
-        result.map_err(|source| BenchError::Io { path, source })
+        self.folder.write(key, "emb", &encode(key, embedded))
     }
 }
 
@@ -247,23 +288,17 @@ fn decode(bytes: &[u8], key: u128, num_vertices: usize) -> Option<Embedded> {
     Some(Embedded { keypoints, points })
 }
 
-/// Version of the MSER detection code whose results are cached ([`mser_cache_key`]): bump the
-/// counter whenever `keycomp_mser` or `keycomp_spectral` change their results.
-pub const MSER_VERSION: &str = concat!(env!("CARGO_PKG_VERSION"), "+mser1");
-
 const MSER_MAGIC: &[u8; 8] = b"KCMSER\0\0";
 
 /// The content key of an MSER detection of `mesh` with `params`: like [`cache_key`] (domain
-/// tag, versions, every coordinate and face) with the MSER parameters' JSON. MSER and MSER
-/// key-components share one entry (both are read off the same detection).
-pub fn mser_cache_key(mesh: &Mesh, params: &MserParams) -> u128 {
-    let mut h = Xxh3::new();
-    h.update(b"keycomp-mser\0");
-    h.update(&CACHE_VERSION.to_le_bytes());
-    h.update(MSER_VERSION.as_bytes());
+/// tag, version, program, every coordinate and face) with the MSER parameters' JSON; `None` when
+/// the program's identity is unknown. MSER and MSER key-components share one entry (both are
+/// read off the same detection).
+pub fn mser_cache_key(mesh: &Mesh, params: &MserParams) -> Option<u128> {
+    let mut h = key_hasher(b"keycomp-mser")?;
     hash_mesh(&mut h, mesh);
     h.update(serde_json::to_string(params).unwrap_or_default().as_bytes());
-    h.digest128()
+    Some(h.digest128())
 }
 
 /// A cached MSER detection: the HKS keypoints (best first) and the maximally stable
@@ -277,22 +312,18 @@ pub struct MserEntry {
 }
 
 impl EmbeddingCache {
-    fn mser_path(&self, key: u128) -> PathBuf {
-        self.dir.join(format!("{key:032x}.msr"))
-    }
-
     /// Looks an MSER detection up for a mesh of `num_vertices` vertices; file
     /// `<dir>/<key>.msr`: `magic "KCMSER\0\0" | version u32 | key u128 | K u32 | K × u32 |
     /// C u32 | C × (len u32 | len × u32)` and the footer of the embedding files. Never fails:
     /// unreadable or invalid entries (ids out of range, unsorted components) are
     /// [`Lookup::Corrupt`].
     pub fn load_mser(&self, key: u128, num_vertices: usize) -> Lookup<MserEntry> {
-        match fs::read(self.mser_path(key)) {
-            Ok(bytes) => {
+        match self.folder.read(key, "msr") {
+            Lookup::Hit(bytes) => {
                 decode_mser(&bytes, key, num_vertices).map_or(Lookup::Corrupt, Lookup::Hit)
             }
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Lookup::Miss,
-            Err(_) => Lookup::Corrupt,
+            Lookup::Miss => Lookup::Miss,
+            Lookup::Corrupt => Lookup::Corrupt,
         }
     }
 
@@ -300,11 +331,7 @@ impl EmbeddingCache {
     ///
     /// Errors: [`BenchError::Io`] with the folder or file.
     pub fn store_mser(&self, key: u128, entry: &MserEntry) -> Result<(), BenchError> {
-        self.write_entry(
-            self.mser_path(key),
-            &format!("{key:032x}.msr"),
-            &encode_mser(key, entry),
-        )
+        self.folder.write(key, "msr", &encode_mser(key, entry))
     }
 }
 
@@ -397,7 +424,7 @@ mod tests {
         let h = HarrisParams::default();
         let s = SmacofParams::default();
         let g = GeodesicOptions::default();
-        let key = cache_key(&mesh, &h, &s, &g);
+        let key = cache_key(&mesh, &h, &s, &g).expect("the test binary is readable");
         assert_eq!(cache.load(key, mesh.num_vertices()), Lookup::Miss);
         cache.store(key, &sample()).unwrap();
         assert_eq!(cache.load(key, mesh.num_vertices()), Lookup::Hit(sample()));
@@ -406,22 +433,22 @@ mod tests {
         // every input changes the key
         let mut moved = mesh.clone();
         moved.positions[0].x += 1e-12;
-        assert_ne!(cache_key(&moved, &h, &s, &g), key);
+        assert_ne!(Some(key), cache_key(&moved, &h, &s, &g));
         let mut flipped = mesh.clone();
         flipped.faces[0].swap(0, 1);
-        assert_ne!(cache_key(&flipped, &h, &s, &g), key);
+        assert_ne!(Some(key), cache_key(&flipped, &h, &s, &g));
         let h2 = HarrisParams {
             selection: Selection::Count(7),
             ..h
         };
-        assert_ne!(cache_key(&mesh, &h2, &s, &g), key);
+        assert_ne!(Some(key), cache_key(&mesh, &h2, &s, &g));
         let s2 = SmacofParams { seed: 1, ..s };
-        assert_ne!(cache_key(&mesh, &h, &s2, &g), key);
+        assert_ne!(Some(key), cache_key(&mesh, &h, &s2, &g));
         let proxy = GeodesicOptions {
             proxy_vertices: g.proxy_vertices + 1000,
             ..g
         };
-        assert_ne!(cache_key(&mesh, &h, &s, &proxy), key);
+        assert_ne!(Some(key), cache_key(&mesh, &h, &s, &proxy));
         let full = GeodesicOptions::full_mesh();
         assert_ne!(
             cache_key(&mesh, &h, &s, &full),
@@ -431,8 +458,8 @@ mod tests {
             min_split_angle_degrees: 120.0,
             ..g
         };
-        assert_ne!(cache_key(&mesh, &h, &s, &angle), key);
-        assert_eq!(cache_key(&mesh.clone(), &h, &s, &g), key);
+        assert_ne!(Some(key), cache_key(&mesh, &h, &s, &angle));
+        assert_eq!(cache_key(&mesh.clone(), &h, &s, &g), Some(key));
     }
 
     #[test]
@@ -441,7 +468,7 @@ mod tests {
         let cache = EmbeddingCache::new(dir.path());
         let key = 0xABCD_u128;
         cache.store(key, &sample()).unwrap();
-        let path = cache.path(key);
+        let path = cache.folder.path(key, "emb");
         let good = fs::read(&path).unwrap();
         let corrupt = |bytes: &[u8]| {
             fs::write(&path, bytes).unwrap();
@@ -462,7 +489,7 @@ mod tests {
         fs::write(&path, &good).unwrap();
         assert_eq!(cache.load(key, 10), Lookup::Hit(sample()));
         assert_eq!(cache.load(key, 4), Lookup::Corrupt);
-        fs::write(cache.path(7), &good).unwrap();
+        fs::write(cache.folder.path(7, "emb"), &good).unwrap();
         assert_eq!(cache.load(7, 10), Lookup::Corrupt);
         // storing again repairs the entry
         fs::write(&path, b"junk").unwrap();
@@ -476,9 +503,9 @@ mod tests {
         let cache = EmbeddingCache::new(dir.path());
         let mesh = synth::icosphere(1, 1.0);
         let p = MserParams::default();
-        let key = mser_cache_key(&mesh, &p);
+        let key = mser_cache_key(&mesh, &p).expect("the test binary is readable");
         assert_ne!(
-            key,
+            Some(key),
             cache_key(
                 &mesh,
                 &HarrisParams::default(),
@@ -487,7 +514,7 @@ mod tests {
             )
         );
         let other = MserParams { time: 0.05, ..p };
-        assert_ne!(mser_cache_key(&mesh, &other), key);
+        assert_ne!(mser_cache_key(&mesh, &other), Some(key));
         let entry = MserEntry {
             keypoints: vec![7, 2],
             components: vec![vec![1, 2, 7], vec![], vec![3]],
@@ -497,7 +524,7 @@ mod tests {
         assert_eq!(cache.load_mser(key, 10), Lookup::Hit(entry.clone()));
         // a vertex out of range, a flipped bit, a truncation
         assert_eq!(cache.load_mser(key, 7), Lookup::Corrupt);
-        let path = cache.mser_path(key);
+        let path = cache.folder.path(key, "msr");
         let good = fs::read(&path).unwrap();
         let mut b = good.clone();
         b[HEADER + 2] ^= 1;

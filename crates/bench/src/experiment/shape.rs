@@ -114,10 +114,12 @@ impl Config {
             embed(mesh, &harris, &self.smacof, &self.geodesic)
                 .map_err(|e| format!("detection failed: {e}"))
         };
-        let Some(cache) = &self.cache else {
+        let cached = self.cache.as_ref().and_then(|c| {
+            cache_key(mesh, &harris, &self.smacof, &self.geodesic).map(|key| (c, key))
+        });
+        let Some((cache, key)) = cached else {
             return Ok((compute()?, CacheUse::Off, None));
         };
-        let key = cache_key(mesh, &harris, &self.smacof, &self.geodesic);
         let state = match cache.load(key, mesh.num_vertices()) {
             Lookup::Hit(e) => return Ok((e, CacheUse::Hit, None)),
             Lookup::Miss => CacheUse::Miss,
@@ -139,10 +141,13 @@ impl Config {
                 })
                 .map_err(|e| format!("MSER detection failed: {e}"))
         };
-        let Some(cache) = &self.cache else {
+        let cached = self
+            .cache
+            .as_ref()
+            .and_then(|c| mser_cache_key(mesh, &self.mser).map(|key| (c, key)));
+        let Some((cache, key)) = cached else {
             return Ok((compute()?, CacheUse::Off, None));
         };
-        let key = mser_cache_key(mesh, &self.mser);
         let state = match cache.load_mser(key, mesh.num_vertices()) {
             Lookup::Hit(e) => return Ok((e, CacheUse::Hit, None)),
             Lookup::Miss => CacheUse::Miss,

@@ -31,10 +31,10 @@
 //!
 //! **Cache.** Records are cached in `OUT/cache` (or `--cache`) as JSON, keyed by a hash of the
 //! file's content, the detection parameters, the role (shape or query) and the running
-//! executable's bytes: a rebuilt
+//! executable's bytes ([`keycomp_bench::cache`], the benchmarks' one cache rule): a rebuilt
 //! binary (whose detection may have changed) never reuses an old entry, and a re-run of the
-//! same binary skips detection. Entries are written atomically (temporary file + rename); an
-//! unreadable entry is recomputed.
+//! same binary skips detection. Entries are written atomically; an unreadable entry is
+//! recomputed.
 //!
 //! **External queries** (`--queries DIR --truth CSV`): files from elsewhere (real range scans,
 //! point clouds, meshes at another resolution), each named in the CSV with its source shape in
