@@ -11,15 +11,17 @@
 //! Prints a markdown table.
 //!
 //! ```text
-//! cargo run --release -p keycomp-index --example index_scale -- [SIZES] [DIR|-] [BATCH]
+//! cargo bench -p keycomp-index --bench index_scale -- [SIZES] [DIR|-] [BATCH]
 //! ```
-//! SIZES is comma-separated (default `1000,10000,100000`); DIR (kept afterwards) defaults to a
-//! temp directory, removed afterwards (`-`); BATCH is the number of shapes per `add_batch`
-//! (one segment each; default 1000).
+//! SIZES is comma-separated (default `1000,10000,100000`); DIR (kept afterwards; a relative
+//! path is taken from the workspace root) defaults to a temp directory, removed afterwards
+//! (`-`); BATCH is the number of shapes per `add_batch` (one segment each; default 1000). The
+//! `--bench` flag that `cargo bench` passes is ignored; without it nothing is measured.
 
-use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
+mod common;
+use common::{bench_args, workspace_path};
 use keycomp_index::{IndexReader, IndexWriter, synthetic};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -37,7 +39,12 @@ fn median(mut v: Vec<Duration>) -> Duration {
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
+    let Some(args) =
+        bench_args("cargo bench -p keycomp-index --bench index_scale -- [SIZES] [DIR|-] [BATCH]")
+    else {
+        return Ok(());
+    };
+    let args = &args[1..];
     let sizes: Vec<u64> = match args.first() {
         Some(s) => s
             .split(',')
@@ -46,7 +53,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         None => vec![1_000, 10_000, 100_000],
     };
     let base = match args.get(1) {
-        Some(d) if d != "-" => PathBuf::from(d),
+        Some(d) if d != "-" => workspace_path(d),
         _ => std::env::temp_dir().join(format!("keycomp-index-scale-{}", std::process::id())),
     };
     let keep = matches!(args.get(1), Some(d) if d != "-");

@@ -5,21 +5,22 @@
 //! destinations), the shapes per second and the bytes written.
 //!
 //! ```text
-//! cargo run --release -p keycomp-index --example merge_cost -- [SHARDS] [PER] [PARTS] [RUNS]
+//! cargo bench -p keycomp-index --bench merge_cost -- [SHARDS] [PER] [PARTS] [RUNS]
 //! ```
-//! Defaults: 4 shards of 2,500 shapes, 84 parts, 3 runs.
+//! Defaults: 4 shards of 2,500 shapes, 84 parts, 3 runs. The `--bench` flag that `cargo bench`
+//! passes is ignored; without it nothing is measured.
 
 use std::time::Instant;
 
+mod common;
+use common::bench_args;
 use keycomp_index::{IndexReader, IndexWriter, ShapeRecord, synthetic};
 
 const D: usize = 64;
 
-fn arg(i: usize, default: usize) -> usize {
-    std::env::args()
-        .nth(i)
-        .and_then(|a| a.parse().ok())
-        .unwrap_or(default)
+/// Argument `i` of `args` (the bench's name first) as a number, or `default`.
+fn arg(args: &[String], i: usize, default: usize) -> usize {
+    args.get(i).and_then(|a| a.parse().ok()).unwrap_or(default)
 }
 
 /// Synthetic record `i` grown to `parts` parts (its own parts repeated) with an m×m layout.
@@ -44,7 +45,17 @@ fn size_of_dir(dir: &std::path::Path) -> u64 {
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let (shards, per, parts, runs) = (arg(1, 4), arg(2, 2500), arg(3, 84), arg(4, 3));
+    let Some(args) = bench_args(
+        "cargo bench -p keycomp-index --bench merge_cost -- [SHARDS] [PER] [PARTS] [RUNS]",
+    ) else {
+        return Ok(());
+    };
+    let (shards, per, parts, runs) = (
+        arg(&args, 1, 4),
+        arg(&args, 2, 2500),
+        arg(&args, 3, 84),
+        arg(&args, 4, 3),
+    );
     let tmp = tempfile::tempdir()?;
     let mut dirs = Vec::new();
     for s in 0..shards {

@@ -6,6 +6,8 @@
 use std::path::Path;
 
 use crate::error::Result;
+use crate::file::FOOTER_LEN;
+use crate::ivf::{Flat, Ivf, Origin};
 
 /// Decodes a segment payload (a segment file without its 32-byte footer) with descriptors
 /// of length `D`, checking it as a reader does against a manifest made up from its head.
@@ -25,9 +27,9 @@ fn cache_points() -> Vec<f32> {
 }
 
 /// Where [`cache_points`]'s descriptors come from: 8 shapes of 8 components, one segment.
-fn cache_origins() -> Vec<crate::ivf::Origin> {
+fn cache_origins() -> Vec<Origin> {
     (0..8)
-        .map(|position| crate::ivf::Origin {
+        .map(|position| Origin {
             segment: (1, 4096, 0x5eed),
             position,
             components: 8,
@@ -39,26 +41,38 @@ fn cache_origins() -> Vec<crate::ivf::Origin> {
 /// does, for `cache_points`'s descriptors; whether it was accepted.
 pub fn decode_search_cache_payload(payload: &[u8]) -> bool {
     let points = cache_points();
-    let flat = crate::ivf::Flat {
+    let flat = Flat {
         data: &points,
         d: 8,
     };
-    crate::ivf::Ivf::from_payload(payload, CACHE_KEY, &flat, 8, &cache_origins()).is_some()
+    Ivf::from_payload(payload, CACHE_KEY, &flat, 8, &cache_origins()).is_some()
 }
 
 /// A valid search-cache payload for [`decode_search_cache_payload`] (a fuzzing seed).
 pub fn search_cache_seed() -> Vec<u8> {
     let points = cache_points();
-    let flat = crate::ivf::Flat {
+    let flat = Flat {
         data: &points,
         d: 8,
     };
-    let sealed = crate::ivf::Ivf::build(&flat, 8).to_cache(CACHE_KEY, &cache_origins());
-    sealed[..sealed.len() - crate::file::FOOTER_LEN].to_vec()
+    let sealed = Ivf::build(&flat, 8).to_cache(CACHE_KEY, &cache_origins());
+    sealed[..sealed.len() - FOOTER_LEN].to_vec()
 }
 
 /// Decodes a manifest payload (a MANIFEST without its footer) of format `version`.
 pub fn decode_manifest_payload(version: u32, payload: &[u8]) -> Result<()> {
     crate::manifest::Manifest::from_payload(Path::new("fuzzed-manifest"), version, payload, None)
         .map(|_| ())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_fuzzing_seed_is_accepted() {
+        let seed = search_cache_seed();
+        assert!(decode_search_cache_payload(&seed));
+        assert!(!decode_search_cache_payload(&seed[..seed.len() - 1]));
+    }
 }

@@ -42,33 +42,36 @@
 
 mod codec;
 mod dir;
+mod distance;
 mod error;
 mod file;
 pub mod fuzzing;
 mod ivf;
+mod kmeans;
 mod manifest;
 mod reader;
 mod record;
+mod search;
+mod search_structure;
 mod segment;
+#[cfg(any(test, feature = "synthetic"))]
 pub mod synthetic;
 mod verify;
 mod version;
 mod writer;
 
 pub use dir::{DEFAULT_INDEX_DIR, LOCK_NAME, MANIFEST_NAME, SEARCH_CACHE_NAME};
+pub use distance::{squared_distance, squared_distance_fast};
 pub use error::{CorruptKind, IndexError, Result};
 pub use file::{FOOTER_LEN, MAGIC as FOOTER_MAGIC};
-pub use ivf::{
-    COARSE_PROBES, FINE_PROBES, FINE_SHARE, MIN_FINE_PROBES, RERANK, SearchEffort,
-    distance_sq as squared_distance_fast,
-};
-pub use reader::{
-    ComponentMatch, EXACT_TREE_MAX, IVF_MIN_COMPONENTS, IndexReader, IndexStats, IndexedShape,
-    SearchMode, SearchSource, squared_distance,
-};
+pub use ivf::{COARSE_PROBES, FINE_PROBES, FINE_SHARE, MIN_FINE_PROBES, RERANK, SearchEffort};
+pub use kmeans::{EmptyCluster, KMeansParams, kmeans, nearest_centroid};
+pub use reader::{IndexReader, IndexStats, IndexedShape};
 pub use record::{
     ComponentRecord, ContentHash, MAX_SAMPLE_POINTS, ShapeId, ShapeRecord, canonical_path,
 };
+pub use search::ComponentMatch;
+pub use search_structure::{EXACT_TREE_MAX, IVF_MIN_COMPONENTS, SearchMode, SearchSource};
 pub use verify::{VerifyReport, verify};
 pub use version::{FORMAT_VERSION, OLDEST_READABLE_VERSION};
 pub use writer::{AddOutcome, AddSummary, IndexWriter, MergeSummary};

@@ -1,9 +1,10 @@
 //! A writer process killed (SIGKILL) at random moments of `add_batch` leaves an index that
-//! opens, verifies, and holds exactly a prefix of what was added, whole batches only.
+//! opens, verifies, and holds exactly a prefix of what was added, whole batches only. The
+//! writer process is this test binary run again with only its [`writer`] test.
 
 #![allow(clippy::unwrap_used)] // helpers outside #[test] fns, in a test crate
 
-use std::io::Read;
+use std::io::{Read, Write};
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::Duration;
@@ -12,10 +13,37 @@ use keycomp_index::{IndexReader, IndexWriter, synthetic, verify};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-const D: usize = 32; // the stress binary's descriptor length
+const D: usize = 32;
 const SEED: u64 = 11;
 const BATCH: u64 = 8;
 const KILLS: usize = 20;
+/// The environment variable naming the index folder of the [`writer`] process.
+const WRITER_DIR: &str = "KEYCOMP_INDEX_CRASH_WRITER_DIR";
+/// Shapes after which the [`writer`] stops, should it not be killed.
+const WRITER_TOTAL: u64 = 100_000_000;
+
+/// The writer process that `killed_writer_leaves_a_valid_prefix` starts and kills at random
+/// moments: adds synthetic shapes (record `i` of [`SEED`]) to the index in [`WRITER_DIR`] in
+/// batches of [`BATCH`], resuming from the live shapes already there, printing `committed N`
+/// after every batch, until it is killed (or has written [`WRITER_TOTAL`] shapes). Without [`WRITER_DIR`] (a run of the ignored tests)
+/// it does nothing.
+#[test]
+#[ignore = "the writer process of killed_writer_leaves_a_valid_prefix, which runs it"]
+fn writer() {
+    let Some(dir) = std::env::var_os(WRITER_DIR) else {
+        return;
+    };
+    let mut w = IndexWriter::<D>::create_or_open(dir).unwrap();
+    let mut n = w.len() as u64;
+    let mut out = std::io::stdout().lock();
+    while n < WRITER_TOTAL {
+        w.add_batch(synthetic::records::<D>(SEED, n..n + BATCH))
+            .unwrap();
+        n += BATCH;
+        writeln!(out, "committed {n}").unwrap();
+        out.flush().unwrap();
+    }
+}
 
 fn last_committed(out: &str) -> u64 {
     out.lines()
@@ -44,7 +72,7 @@ fn check_prefix(dir: &Path, at_least: u64) -> u64 {
 
 #[test]
 fn killed_writer_leaves_a_valid_prefix() {
-    let exe = env!("CARGO_BIN_EXE_keycomp-index-stress");
+    let exe = std::env::current_exe().unwrap();
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("index");
     drop(IndexWriter::<D>::create_or_open(&dir).unwrap());
@@ -53,13 +81,9 @@ fn killed_writer_leaves_a_valid_prefix() {
     let mut with_leftovers = 0;
     let mut grew = 0;
     for round in 0..KILLS {
-        let mut child = Command::new(exe)
-            .args([
-                dir.to_str().unwrap(),
-                &SEED.to_string(),
-                &BATCH.to_string(),
-                "100000000",
-            ])
+        let mut child = Command::new(&exe)
+            .args(["writer", "--exact", "--ignored", "--nocapture"])
+            .env(WRITER_DIR, &dir)
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
             .spawn()
