@@ -88,11 +88,11 @@ pub fn replace_folder<T, E: From<Error>>(
         }
     };
     let old = parent.join(format!(".{name}.old-{pid}"));
-    if dir.exists() {
-        if let Err(e) = std::fs::rename(dir, &old) {
-            let _ = std::fs::remove_dir_all(&tmp);
-            return Err(failed(dir, "cannot move the old folder aside", e).into());
-        }
+    if dir.exists()
+        && let Err(e) = std::fs::rename(dir, &old)
+    {
+        let _ = std::fs::remove_dir_all(&tmp);
+        return Err(failed(dir, "cannot move the old folder aside", e).into());
     }
     std::fs::rename(&tmp, dir)
         .map_err(|e| failed(dir, "cannot move the new folder into place", e))?;

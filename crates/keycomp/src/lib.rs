@@ -19,6 +19,10 @@
 //! for partial queries), `keycomp_render` (pictures); `keycomp_bench` (the benchmarks) is a
 //! client of them that this library does not use.
 //!
+//! The crate's `examples/` run each operation on a collection generated in code, or on your
+//! files: `index_folder`, `query`, `match_meshes` and `read_scan`
+//! (`cargo run --release -p keycomp --example query -- INDEX QUERY`).
+//!
 //! ```no_run
 //! use std::path::Path;
 //! use keycomp::collection::{self, AddOptions};

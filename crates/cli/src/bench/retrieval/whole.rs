@@ -39,9 +39,7 @@ pub(super) fn queries(s: &Setting<'_>, records: &[ShapeRecord<DIM>]) -> Result<V
                 return Ok(None);
             }
             let hash = records[i].content_hash;
-            Ok(Some(
-                cache.records(&files[i], hash, params, Role::Query)?.0,
-            ))
+            Ok(Some(cache.records(&files[i], hash, params, Role::Query)?.0))
         })
         .collect::<Result<_>>()?;
     (0..n)
