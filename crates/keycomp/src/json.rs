@@ -30,7 +30,7 @@ pub struct ComponentJson<'a> {
     pub vertices: &'a [u32],
     /// Its faces (indices into the mesh's faces).
     pub faces: &'a [u32],
-    /// Its area, in mesh units squared.
+    /// Its area as a fraction of the mesh's total area (in [0, 1]).
     pub area: f64,
 }
 
