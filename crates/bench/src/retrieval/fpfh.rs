@@ -75,7 +75,8 @@
 //! to its squared distance to the nearest centre so far; one candidate per step), then Lloyd
 //! iterations (S. P. Lloyd, "Least squares quantization in PCM", IEEE Transactions on
 //! Information Theory 28(2), 1982: assign every feature to its nearest centre, move every
-//! centre to the mean of its features) until no assignment changes or after
+//! centre to the mean of its features; `keycomp_index::kmeans`, the k-means of the index's
+//! inverted file) until no assignment changes or after
 //! [`FpfhParams::max_iterations`] assignment steps. A centre left without features moves to
 //! the feature farthest from its own centre. Ties go to the lower word index; the assignment
 //! step runs in parallel (rayon) and the means are summed sequentially in f64, so the codebook
@@ -106,6 +107,8 @@ use serde::Serialize;
 use keycomp_mesh::{Mesh, Point3, Vector3};
 
 use keycomp_mesh::sample::AreaSampler;
+
+use keycomp_index::{EmptyCluster, KMeansParams, kmeans, nearest_centroid, squared_distance_fast};
 
 /// Bins of each of the three angle histograms.
 pub const BINS: usize = 11;
@@ -424,30 +427,6 @@ pub fn fpfh(
         .collect())
 }
 
-/// Squared Euclidean distance between two features, summed in 8 independent lanes (so the
-/// compiler can vectorise it) and then across lanes.
-#[inline]
-fn dist2(a: &Feature, b: &Feature) -> f32 {
-    const LANES: usize = 8;
-    let mut acc = [0.0f32; LANES];
-    let full = DIM / LANES * LANES;
-    for (ca, cb) in a[..full]
-        .chunks_exact(LANES)
-        .zip(b[..full].chunks_exact(LANES))
-    {
-        for l in 0..LANES {
-            let d = ca[l] - cb[l];
-            acc[l] += d * d;
-        }
-    }
-    let mut s: f32 = acc.iter().sum();
-    for k in full..DIM {
-        let d = a[k] - b[k];
-        s += d * d;
-    }
-    s
-}
-
 /// A codebook of visual words: k-means centres of FPFH features (step 7 of the
 /// [module docs](self)).
 #[derive(Debug, Clone, PartialEq)]
@@ -456,9 +435,48 @@ pub struct Codebook {
     pub words: Vec<Feature>,
 }
 
+/// At most `words` initial centres of k-means among `features` (not empty) by k-means++ (the
+/// first uniform, each next one drawn with probability proportional to its squared distance to
+/// the nearest centre so far), drawing from `rng`; fewer when every feature coincides with a
+/// centre.
+fn kmeans_pp(features: &[Feature], words: usize, rng: &mut ChaCha8Rng) -> Vec<Feature> {
+    let mut centres = vec![features[rng.random_range(0..features.len())]];
+    // squared distance of every feature to its nearest centre so far
+    let mut nearest: Vec<f32> = features
+        .par_iter()
+        .map(|f| squared_distance_fast(f, &centres[0]))
+        .collect();
+    while centres.len() < words {
+        let total: f64 = nearest.iter().map(|&d| f64::from(d)).sum();
+        if !(total > 0.0 && total.is_finite()) {
+            // every feature coincides with a centre: fewer distinct features than words
+            break;
+        }
+        let target = rng.random::<f64>() * total;
+        let mut acc = 0.0;
+        // the last feature with positive weight, should rounding leave `acc` short
+        let mut pick = nearest.iter().rposition(|&d| d > 0.0).unwrap_or(0);
+        for (i, &d) in nearest.iter().enumerate() {
+            acc += f64::from(d);
+            if acc > target && d > 0.0 {
+                pick = i;
+                break;
+            }
+        }
+        let c = features[pick];
+        centres.push(c);
+        nearest
+            .par_iter_mut()
+            .zip(features.par_iter())
+            .for_each(|(d, f)| *d = d.min(squared_distance_fast(f, &c)));
+    }
+    centres
+}
+
 impl Codebook {
     /// k-means with k-means++ initialisation of `features` into at most `words` words, at most
-    /// `max_iterations` Lloyd assignment steps, seeded by `seed`.
+    /// `max_iterations` Lloyd assignment steps, seeded by `seed` (the Lloyd iterations are
+    /// `keycomp_index::kmeans`'s, an empty word moved to the feature farthest from its centre).
     ///
     /// Errors: [`FpfhError::NoFeatures`] for no features, [`FpfhError::InvalidParams`] for 0
     /// words.
@@ -475,72 +493,17 @@ impl Codebook {
             return Err(FpfhError::InvalidParams);
         }
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let mut centres = vec![features[rng.random_range(0..features.len())]];
-        // k-means++: squared distance of every feature to its nearest centre so far
-        let mut nearest: Vec<f32> = features.par_iter().map(|f| dist2(f, &centres[0])).collect();
-        while centres.len() < words {
-            let total: f64 = nearest.iter().map(|&d| f64::from(d)).sum();
-            if !(total > 0.0 && total.is_finite()) {
-                // every feature coincides with a centre: fewer distinct features than words
-                break;
-            }
-            let target = rng.random::<f64>() * total;
-            let mut acc = 0.0;
-            // the last feature with positive weight, should rounding leave `acc` short
-            let mut pick = nearest.iter().rposition(|&d| d > 0.0).unwrap_or(0);
-            for (i, &d) in nearest.iter().enumerate() {
-                acc += f64::from(d);
-                if acc > target && d > 0.0 {
-                    pick = i;
-                    break;
-                }
-            }
-            let c = features[pick];
-            centres.push(c);
-            nearest
-                .par_iter_mut()
-                .zip(features.par_iter())
-                .for_each(|(d, f)| *d = d.min(dist2(f, &c)));
-        }
-        let mut book = Codebook { words: centres };
-        let mut assignment: Vec<usize> = Vec::new();
-        for _ in 0..max_iterations {
-            let step: Vec<(usize, f32)> = features.par_iter().map(|f| book.nearest(f)).collect();
-            if step.iter().map(|s| s.0).eq(assignment.iter().copied()) {
-                break;
-            }
-            assignment = step.iter().map(|s| s.0).collect();
-            // update: means in f64, summed in feature order
-            let k = book.words.len();
-            let mut sums = vec![[0.0f64; DIM]; k];
-            let mut counts = vec![0usize; k];
-            for (f, &(w, _)) in features.iter().zip(&step) {
-                counts[w] += 1;
-                for (s, x) in sums[w].iter_mut().zip(f) {
-                    *s += f64::from(*x);
-                }
-            }
-            // an empty word moves to the feature farthest from its centre (each feature once)
-            let mut far: Vec<f32> = step.iter().map(|s| s.1).collect();
-            for w in 0..k {
-                if counts[w] > 0 {
-                    let c = counts[w] as f64;
-                    for (o, s) in book.words[w].iter_mut().zip(&sums[w]) {
-                        *o = (s / c) as f32;
-                    }
-                } else {
-                    let (i, _) =
-                        far.iter()
-                            .enumerate()
-                            .fold((0, f32::NEG_INFINITY), |best, (i, &d)| {
-                                if d > best.1 { (i, d) } else { best }
-                            });
-                    far[i] = f32::NEG_INFINITY;
-                    book.words[w] = features[i];
-                }
-            }
-        }
-        Ok(book)
+        let start = kmeans_pp(features, words, &mut rng);
+        let points: Vec<&[f32]> = features.iter().map(|f| f.as_slice()).collect();
+        let params = KMeansParams {
+            max_iterations,
+            empty: EmptyCluster::Farthest,
+        };
+        let centres = kmeans(&points, DIM, start.as_flattened().to_vec(), params);
+        let (words, _) = centres.as_chunks::<DIM>();
+        Ok(Codebook {
+            words: words.to_vec(),
+        })
     }
 
     /// Number of words.
@@ -555,14 +518,7 @@ impl Codebook {
 
     /// The word nearest to `f` (the lower index on a tie) and its squared distance.
     pub fn nearest(&self, f: &Feature) -> (usize, f32) {
-        let mut best = (0, f32::INFINITY);
-        for (w, c) in self.words.iter().enumerate() {
-            let d = dist2(f, c);
-            if d < best.1 {
-                best = (w, d);
-            }
-        }
-        best
+        nearest_centroid(self.words.as_flattened(), DIM, f)
     }
 
     /// The number of `features` nearest to each word (hard assignment).
@@ -903,12 +859,20 @@ mod tests {
         }
         let a = mesh_features(&m, &params, FpfhScale::ScaleFree).unwrap();
         let b = mesh_features(&big, &params, FpfhScale::ScaleFree).unwrap();
-        let diff: f32 = a.iter().zip(&b).map(|(x, y)| dist2(x, y).sqrt()).sum();
+        let diff: f32 = a
+            .iter()
+            .zip(&b)
+            .map(|(x, y)| squared_distance_fast(x, y).sqrt())
+            .sum();
         assert!(diff / (a.len() as f32) < 0.5, "{diff}");
         // while a fixed radius sees more neighbours on the larger copy: different features
         let units = FpfhScale::FileUnits { area: m_area(&m) };
         let c = mesh_features(&big, &params, units).unwrap();
-        let diff: f32 = a.iter().zip(&c).map(|(x, y)| dist2(x, y).sqrt()).sum();
+        let diff: f32 = a
+            .iter()
+            .zip(&c)
+            .map(|(x, y)| squared_distance_fast(x, y).sqrt())
+            .sum();
         assert!(diff / (a.len() as f32) > 5.0, "{diff}");
     }
 
@@ -984,6 +948,32 @@ mod tests {
             book,
             pool.install(|| Codebook::fit(&feats, 4, 50, 7).unwrap())
         );
+    }
+
+    /// Lloyd's iterations stop when the assignment no longer changes: every word is then the
+    /// mean (summed in f64) of the features nearest to it.
+    #[test]
+    fn a_settled_codebook_is_the_mean_of_its_features() {
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let feats: Vec<Feature> = (0..600)
+            .map(|_| std::array::from_fn(|_| rng.random_range(0.0f32..200.0)))
+            .collect();
+        let book = Codebook::fit(&feats, 12, 1000, 3).unwrap();
+        let mut sums = vec![[0.0f64; DIM]; book.len()];
+        let mut counts = vec![0usize; book.len()];
+        for f in &feats {
+            let w = book.nearest(f).0;
+            counts[w] += 1;
+            for (s, x) in sums[w].iter_mut().zip(f) {
+                *s += f64::from(*x);
+            }
+        }
+        for (w, word) in book.words.iter().enumerate() {
+            assert!(counts[w] > 0, "word {w} has no feature");
+            for (x, s) in word.iter().zip(&sums[w]) {
+                assert_eq!(*x, (s / counts[w] as f64) as f32, "word {w}");
+            }
+        }
     }
 
     #[test]
