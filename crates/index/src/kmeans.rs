@@ -2,8 +2,8 @@
 //!
 //! S. P. Lloyd, "Least squares quantization in PCM", IEEE Transactions on Information Theory
 //! 28(2), 1982. Each iteration:
-//! 1. assigns every point to its nearest centroid (squared Euclidean distance; ties to the
-//!    lower index);
+//! 1. assigns every point to its nearest centroid (squared Euclidean distance in eight partial
+//!    sums, [`crate::squared_distance_fast`]; ties to the lower index);
 //! 2. stops if no point changed centroid since the previous iteration (the centroids would not
 //!    move), or after [`KMeansParams::max_iterations`];
 //! 3. moves each centroid to the mean of its points, summed in `f64` in point order, so that the

@@ -47,7 +47,7 @@ mod error;
 mod file;
 pub mod fuzzing;
 mod ivf;
-mod kmeans;
+pub mod kmeans;
 mod manifest;
 mod reader;
 mod record;
@@ -65,7 +65,6 @@ pub use distance::{squared_distance, squared_distance_fast};
 pub use error::{CorruptKind, IndexError, Result};
 pub use file::{FOOTER_LEN, MAGIC as FOOTER_MAGIC};
 pub use ivf::{COARSE_PROBES, FINE_PROBES, FINE_SHARE, MIN_FINE_PROBES, RERANK, SearchEffort};
-pub use kmeans::{EmptyCluster, KMeansParams, kmeans, nearest_centroid};
 pub use reader::{IndexReader, IndexStats, IndexedShape};
 pub use record::{
     ComponentRecord, ContentHash, MAX_SAMPLE_POINTS, ShapeId, ShapeRecord, canonical_path,

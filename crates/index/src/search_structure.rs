@@ -27,11 +27,12 @@ pub enum SearchMode {
     Auto,
     /// Always exact (the KD-tree).
     Exact,
-    /// Always the inverted file (approximate; see [`crate::ivf`]).
+    /// Always the inverted file (approximate: quantised residuals in k-means cells).
     Approximate,
 }
 
-/// Where a snapshot's search structure came from ([`IndexReader::search_source`](crate::IndexReader::search_source)).
+/// Where a snapshot's search structure came from
+/// ([`IndexReader::search_source`](crate::IndexReader::search_source)).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum SearchSource {
     /// Built from the descriptors: the exact KD-tree, or an inverted file without a usable

@@ -25,8 +25,8 @@ const WRITER_TOTAL: u64 = 100_000_000;
 /// The writer process that `killed_writer_leaves_a_valid_prefix` starts and kills at random
 /// moments: adds synthetic shapes (record `i` of [`SEED`]) to the index in [`WRITER_DIR`] in
 /// batches of [`BATCH`], resuming from the live shapes already there, printing `committed N`
-/// after every batch, until it is killed (or has written [`WRITER_TOTAL`] shapes). Without [`WRITER_DIR`] (a run of the ignored tests)
-/// it does nothing.
+/// after every batch, until it is killed (or has written [`WRITER_TOTAL`] shapes). Without
+/// [`WRITER_DIR`] (a run of the ignored tests) it does nothing.
 #[test]
 #[ignore = "the writer process of killed_writer_leaves_a_valid_prefix, which runs it"]
 fn writer() {

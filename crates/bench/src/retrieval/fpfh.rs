@@ -108,7 +108,8 @@ use keycomp_mesh::{Mesh, Point3, Vector3};
 
 use keycomp_mesh::sample::AreaSampler;
 
-use keycomp_index::{EmptyCluster, KMeansParams, kmeans, nearest_centroid, squared_distance_fast};
+use keycomp_index::kmeans::{EmptyCluster, KMeansParams, kmeans, nearest_centroid};
+use keycomp_index::squared_distance_fast;
 
 /// Bins of each of the three angle histograms.
 pub const BINS: usize = 11;

@@ -14,9 +14,9 @@
 //! The parts, one file each:
 //! - [`build`]: the descriptors split into `c` coarse cells by k-means ([`crate::kmeans`]),
 //!   each coarse cell into `c` fine cells by k-means over its members, with
-//!   `c ≈ √(n / CELL_SIZE)` so that a fine cell holds about [`CELL_SIZE`](build::CELL_SIZE) descriptors; each
-//!   descriptor stored once, in its fine cell, as the code of its residual from the fine
-//!   centroid;
+//!   `c ≈ √(n / CELL_SIZE)` so that a fine cell holds about [`CELL_SIZE`](build::CELL_SIZE)
+//!   descriptors; each descriptor stored once, in its fine cell, as the code of its residual
+//!   from the fine centroid;
 //! - [`quantiser`]: the code, two bytes per value (128 bytes for 64 values instead of 256),
 //!   each value rounded to the nearest of 65,536 levels spanning that value's range over the
 //!   cell's members, kept as two arrays (first bytes, second bytes); the distances from a

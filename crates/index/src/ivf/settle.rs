@@ -15,11 +15,11 @@ pub(crate) fn resolve(
 }
 
 /// The `k` nearest of a search's candidates (items with a squared distance and the largest
-/// error of its square root, as [`Ivf::search_bounded`](super::Ivf::search_bounded) gives them): an item that fewer than
-/// `k` others may be nearer than is in, one that `k` others are surely nearer than is out, and
-/// the places left go to the others ([`Settle::open`]) by their true squared distances, so
-/// that codes whose distances are too close to tell apart at the `k`-th place are told apart
-/// by the descriptors, read for those only.
+/// error of its square root, as [`Ivf::search_bounded`](super::Ivf::search_bounded) gives
+/// them): an item that fewer than `k` others may be nearer than is in, one that `k` others are
+/// surely nearer than is out, and the places left go to the others ([`Settle::open`]) by their
+/// true squared distances, so that codes whose distances are too close to tell apart at the
+/// `k`-th place are told apart by the descriptors, read for those only.
 pub(crate) struct Settle {
     k: usize,
     /// Items surely among the `k` nearest, with their codes' distances.
