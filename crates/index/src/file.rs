@@ -230,6 +230,41 @@ pub fn write_atomic_sealed(
     version: u32,
     write: impl FnOnce(&mut SealWriter<std::io::BufWriter<File>>) -> std::io::Result<()>,
 ) -> Result<PathBuf> {
+    write_atomic_with(dir, name, |f| {
+        let mut w = SealWriter {
+            inner: std::io::BufWriter::with_capacity(1 << 20, f),
+            len: 0,
+            hash: xxhash_rust::xxh3::Xxh3Default::new(),
+        };
+        write(&mut w)?;
+        let len = w.len;
+        w.write_all(&len.to_le_bytes())?;
+        w.write_all(&kind.to_le_bytes())?;
+        w.write_all(&version.to_le_bytes())?;
+        let checksum = w.hash.digest();
+        let mut inner = w.inner;
+        inner.write_all(&checksum.to_le_bytes())?;
+        inner.write_all(&MAGIC)?;
+        inner.into_inner().map_err(|e| e.into_error())
+    })
+}
+
+/// Writes `bytes` to `dir/name` atomically (temp file, fsync, rename, fsync directory).
+pub fn write_atomic(dir: &Path, name: &str, bytes: &[u8]) -> Result<PathBuf> {
+    write_atomic_with(dir, name, |mut f| {
+        f.write_all(bytes)?;
+        Ok(f)
+    })
+}
+
+/// The atomic write of every index file: `write` fills a new temporary file `NAME.tmp-PID-N`
+/// in `dir` and hands it back, which is synced, renamed over `dir/name`, and the directory
+/// synced. On any error the temporary file is removed and `dir/name` is left as it was.
+fn write_atomic_with(
+    dir: &Path,
+    name: &str,
+    write: impl FnOnce(File) -> std::io::Result<File>,
+) -> Result<PathBuf> {
     let n = TEMP_COUNTER.fetch_add(1, Ordering::Relaxed);
     let tmp = dir.join(format!("{name}{TEMP_INFIX}{}-{n}", std::process::id()));
     let target = dir.join(name);
@@ -239,48 +274,7 @@ pub fn write_atomic_sealed(
             .create_new(true)
             .open(&tmp)
             .map_err(|e| IndexError::io("could not create", &tmp, e))?;
-        let failed = |e| IndexError::io("could not write", &tmp, e);
-        let mut w = SealWriter {
-            inner: std::io::BufWriter::with_capacity(1 << 20, f),
-            len: 0,
-            hash: xxhash_rust::xxh3::Xxh3Default::new(),
-        };
-        write(&mut w).map_err(failed)?;
-        let len = w.len;
-        w.write_all(&len.to_le_bytes()).map_err(failed)?;
-        w.write_all(&kind.to_le_bytes()).map_err(failed)?;
-        w.write_all(&version.to_le_bytes()).map_err(failed)?;
-        let checksum = w.hash.digest();
-        let mut inner = w.inner;
-        inner.write_all(&checksum.to_le_bytes()).map_err(failed)?;
-        inner.write_all(&MAGIC).map_err(failed)?;
-        let f = inner.into_inner().map_err(|e| failed(e.into_error()))?;
-        f.sync_all()
-            .map_err(|e| IndexError::io("could not sync", &tmp, e))?;
-        drop(f);
-        fs::rename(&tmp, &target).map_err(|e| IndexError::io("could not rename into", &target, e))
-    })();
-    if let Err(e) = result {
-        let _ = fs::remove_file(&tmp);
-        return Err(e);
-    }
-    sync_dir(dir)?;
-    Ok(target)
-}
-
-/// Writes `bytes` to `dir/name` atomically (temp file, fsync, rename, fsync directory).
-pub fn write_atomic(dir: &Path, name: &str, bytes: &[u8]) -> Result<PathBuf> {
-    let n = TEMP_COUNTER.fetch_add(1, Ordering::Relaxed);
-    let tmp = dir.join(format!("{name}{TEMP_INFIX}{}-{n}", std::process::id()));
-    let target = dir.join(name);
-    let result = (|| {
-        let mut f = OpenOptions::new()
-            .write(true)
-            .create_new(true)
-            .open(&tmp)
-            .map_err(|e| IndexError::io("could not create", &tmp, e))?;
-        f.write_all(bytes)
-            .map_err(|e| IndexError::io("could not write", &tmp, e))?;
+        let f = write(f).map_err(|e| IndexError::io("could not write", &tmp, e))?;
         f.sync_all()
             .map_err(|e| IndexError::io("could not sync", &tmp, e))?;
         drop(f);
