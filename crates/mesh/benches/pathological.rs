@@ -3,11 +3,13 @@
 //! `polygon-N.off` for N = 20,000, 40,000 and 80,000 (one wavy polygon of N corners as a single
 //! OFF face, which the reader fan-triangulates: its first corner gets valence N − 1).
 //!
-//! `cargo bench -p keycomp-mesh --bench pathological -- DIR` (the `--bench` flag that `cargo
-//! bench` passes is ignored; without DIR it prints its usage and writes nothing)
+//! `cargo bench -p keycomp-mesh --bench pathological -- DIR` (DIR relative to the workspace
+//! root; the `--bench` flag that `cargo bench` passes is ignored; without DIR it prints its
+//! usage and writes nothing)
 
 use std::fmt::Write as _;
-use std::path::PathBuf;
+
+use keycomp_test_support::workspace_path;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     // `cargo bench` adds `--bench`
@@ -15,7 +17,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         eprintln!("usage: cargo bench -p keycomp-mesh --bench pathological -- DIR");
         return Ok(());
     };
-    let dir = PathBuf::from(dir);
+    // `cargo bench` runs in crates/mesh
+    let dir = workspace_path(dir);
     std::fs::create_dir_all(&dir)?;
     keycomp_mesh::write_off(
         &keycomp_mesh::synth::bicone(5000),

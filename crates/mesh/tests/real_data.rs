@@ -10,16 +10,7 @@ use std::time::Instant;
 
 use keycomp_mesh::grid::DEPTH_JUMP;
 use keycomp_mesh::{Format, Geometry, LoadedMesh, Point3, Source, read_input, read_mesh};
-
-fn data_dir() -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data");
-    if dir.is_dir() {
-        Some(dir)
-    } else {
-        eprintln!("skipping: ../shared/data not found ({})", dir.display());
-        None
-    }
-}
+use keycomp_test_support::{median, shared_data};
 
 fn load(path: &Path) -> LoadedMesh {
     let t = Instant::now();
@@ -57,7 +48,7 @@ const KNOWN: &[(&str, usize, Option<usize>)] = &[
 
 #[test]
 fn real_meshes_load_with_their_declared_counts() {
-    let Some(dir) = data_dir() else { return };
+    let Some(dir) = shared_data("") else { return };
     // Every model in models/ is in the table (a new file must be added to it).
     for entry in std::fs::read_dir(dir.join("models")).unwrap() {
         let name = format!("models/{}", entry.unwrap().file_name().to_string_lossy());
@@ -90,7 +81,7 @@ fn real_meshes_load_with_their_declared_counts() {
 
 #[test]
 fn obj_triangles_match_tobj() {
-    let Some(dir) = data_dir() else { return };
+    let Some(dir) = shared_data("") else { return };
     for name in [
         "models/spot.obj",
         "models/homer.obj",
@@ -141,7 +132,7 @@ fn obj_triangles_match_tobj() {
 
 #[test]
 fn igea_strip_winding_is_consistent() {
-    let Some(dir) = data_dir() else { return };
+    let Some(dir) = shared_data("") else { return };
     let path = dir.join("models/igea.ply");
     if !path.exists() {
         return;
@@ -228,14 +219,9 @@ fn parse_scan(path: &Path) -> Scan {
     }
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
-
 #[test]
 fn bunny_range_scans_triangulate_into_sensible_meshes() {
-    let Some(dir) = data_dir() else { return };
+    let Some(dir) = shared_data("") else { return };
     let scans = dir.join("scans/bunny");
     if !scans.is_dir() {
         eprintln!("skipping: {} not found", scans.display());
