@@ -4,24 +4,22 @@
 //!
 //! `cargo bench -p keycomp-harris`
 
-use std::path::PathBuf;
 use std::time::Duration;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use keycomp_harris::{HarrisParams, detect};
 use keycomp_mesh::{Mesh, Topology, read_mesh, synth};
+use keycomp_test_support::shared_data;
 
 const MODELS: [&str; 3] = ["nefertiti.obj", "horse.ply", "igea.ply"];
-
-fn models_dir() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/models")
-}
 
 /// The synthetic mesh plus every shared model that is present and readable.
 fn meshes() -> Vec<(String, Mesh)> {
     let mut out = vec![("icosphere6".to_string(), synth::icosphere(6, 1.0))];
     for name in MODELS {
-        let p = models_dir().join(name);
+        let Some(p) = shared_data(format!("models/{name}")) else {
+            continue;
+        };
         match read_mesh(&p) {
             Ok(m) => out.push((name.to_string(), m.mesh)),
             Err(e) => eprintln!("skipping {name}: {e}"),
@@ -50,9 +48,11 @@ fn bench_read(c: &mut Criterion) {
         .warm_up_time(Duration::from_millis(500))
         .measurement_time(Duration::from_secs(2));
     for name in MODELS {
-        let p = models_dir().join(name);
+        let Some(p) = shared_data(format!("models/{name}")) else {
+            continue;
+        };
         let Ok(m) = read_mesh(&p) else {
-            eprintln!("skipping reading {name}: not found or unreadable");
+            eprintln!("skipping reading {name}: unreadable");
             continue;
         };
         g.throughput(Throughput::Elements(m.mesh.num_vertices() as u64));

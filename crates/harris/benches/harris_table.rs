@@ -5,24 +5,25 @@
 //! `cargo bench -p keycomp-harris --bench harris_table` (no arguments; the `--bench` flag that
 //! `cargo bench` passes is ignored)
 
-use std::path::PathBuf;
 use std::time::Instant;
 
 use keycomp_harris::{HarrisParams, detect};
 use keycomp_mesh::{Mesh, Topology, read_mesh, synth};
+use keycomp_test_support::{median, shared_data};
 
 const RUNS: usize = 5;
 
+/// The median wall time of `RUNS` calls of `f`, in milliseconds.
 fn median_ms(mut f: impl FnMut()) -> f64 {
-    let mut t: Vec<f64> = (0..RUNS)
-        .map(|_| {
-            let s = Instant::now();
-            f();
-            s.elapsed().as_secs_f64() * 1e3
-        })
-        .collect();
-    t.sort_by(f64::total_cmp);
-    t[RUNS / 2]
+    median(
+        (0..RUNS)
+            .map(|_| {
+                let s = Instant::now();
+                f();
+                s.elapsed().as_secs_f64() * 1e3
+            })
+            .collect(),
+    )
 }
 
 fn harris_ms(mesh: &Mesh, threads: usize) -> Result<f64, Box<dyn std::error::Error>> {
@@ -46,7 +47,6 @@ fn harris_ms(mesh: &Mesh, threads: usize) -> Result<f64, Box<dyn std::error::Err
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let models = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/models");
     println!(
         "| mesh | vertices | read ms | harris ms (1 thread) | harris ms (2 threads) | vertices/s (2 threads) |"
     );
@@ -57,11 +57,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         None,
     )];
     for name in ["nefertiti.obj", "horse.ply", "igea.ply"] {
-        let p = models.join(name);
-        if !p.is_file() {
-            eprintln!("skipping {name}: {} not found", p.display());
+        let Some(p) = shared_data(format!("models/{name}")) else {
             continue;
-        }
+        };
         let mut mesh = None;
         let mut err = None;
         let read = median_ms(|| match read_mesh(&p) {

@@ -1,23 +1,10 @@
 //! Harris 3D on real meshes from `../shared/data` (skipped with a message when absent):
 //! repeatability between two poses of the TOSCA cat, which share their vertex numbering.
 
-use std::cmp::Reverse;
-use std::collections::BinaryHeap;
-use std::path::PathBuf;
-
 use keycomp_harris::{HarrisParams, HarrisResult, LengthReference, detect};
 use keycomp_mesh::geometry::total_area;
 use keycomp_mesh::{Mesh, Topology, read_mesh};
-
-fn data_dir() -> Option<PathBuf> {
-    let d = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data");
-    if d.is_dir() {
-        Some(d)
-    } else {
-        println!("skipping: {} is absent", d.display());
-        None
-    }
-}
+use keycomp_test_support::{edge_path_distances, median, shared_data};
 
 fn load(path: &std::path::Path) -> Mesh {
     read_mesh(path)
@@ -47,32 +34,6 @@ fn hops_from(topo: &Topology, sources: &[u32], max_hops: u32) -> Vec<u32> {
     hops
 }
 
-/// Shortest edge-path length from the nearest source (multi-source Dijkstra): a cheap
-/// upper bound on geodesic distance (a few % long on regular meshes).
-fn edge_distance_from(mesh: &Mesh, topo: &Topology, sources: &[u32]) -> Vec<f64> {
-    let mut dist = vec![f64::INFINITY; mesh.num_vertices()];
-    let mut heap = BinaryHeap::new();
-    for &s in sources {
-        dist[s as usize] = 0.0;
-        heap.push((Reverse(0u64), s));
-    }
-    while let Some((Reverse(dbits), u)) = heap.pop() {
-        let d = f64::from_bits(dbits);
-        if d > dist[u as usize] {
-            continue;
-        }
-        for &w in topo.neighbors(u) {
-            let nd = d + (mesh.positions[w as usize] - mesh.positions[u as usize]).norm();
-            if nd < dist[w as usize] {
-                dist[w as usize] = nd;
-                // non-negative f64 bit patterns order like the values
-                heap.push((Reverse(nd.to_bits()), w));
-            }
-        }
-    }
-    dist
-}
-
 struct Repeatability {
     same_vertex: f64,
     within_2_rings: f64,
@@ -94,9 +55,10 @@ fn repeatability(
         .count();
     // distances on the null shape, in unit-area units
     let s = 1.0 / total_area(null).sqrt();
-    let dist = edge_distance_from(null, topo, &a.keypoints);
-    let mut d: Vec<f64> = b.keypoints.iter().map(|&k| dist[k as usize] * s).collect();
-    d.sort_by(f64::total_cmp);
+    // shortest edge-path length from the nearest keypoint of a: a cheap upper bound on
+    // geodesic distance (a few % long on regular meshes)
+    let dist = edge_path_distances(&null.positions, &null.faces, &a.keypoints);
+    let d: Vec<f64> = b.keypoints.iter().map(|&k| dist[k as usize] * s).collect();
     let radius = 0.02; // 2 % of √area
     Repeatability {
         same_vertex: b
@@ -106,14 +68,14 @@ fn repeatability(
             .count() as f64
             / b.keypoints.len() as f64,
         within_2_rings: near as f64 / b.keypoints.len() as f64,
-        median_distance: d.get(d.len() / 2).copied().unwrap_or(f64::NAN),
+        median_distance: median(d.clone()),
         within_distance: d.iter().filter(|&&x| x <= radius).count() as f64 / d.len() as f64,
     }
 }
 
 #[test]
 fn cat_poses_share_most_keypoints() {
-    let Some(dir) = data_dir() else { return };
+    let Some(dir) = shared_data("") else { return };
     let (p0, p3) = (dir.join("tosca/cat0.off"), dir.join("tosca/cat3.off"));
     if !p0.is_file() || !p3.is_file() {
         println!("skipping: TOSCA cat0/cat3 not found in {}", dir.display());
@@ -172,7 +134,7 @@ fn cat_poses_share_most_keypoints() {
 
 #[test]
 fn models_have_finite_responses() {
-    let Some(dir) = data_dir() else { return };
+    let Some(dir) = shared_data("") else { return };
     for name in ["bunny.off", "fandisk.off", "camelhead.off"] {
         let p = dir.join("models").join(name);
         if !p.is_file() {
