@@ -5,26 +5,22 @@
 //! `cargo bench -p keycomp-geodesic`
 
 use std::hint::black_box;
-use std::path::Path;
 use std::time::Duration;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use keycomp_geodesic::{GeodesicSolver, distance_matrix};
 use keycomp_mesh::{Mesh, Topology, synth};
+use keycomp_test_support::shared_data;
 
 fn meshes() -> Vec<(String, Mesh)> {
     let mut out = vec![("icosphere6".to_string(), synth::icosphere(6, 1.0))];
-    let path =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/models/nefertiti.obj");
-    if path.exists() {
+    if let Some(path) = shared_data("models/nefertiti.obj") {
         // reading may not be implemented in every build: skip rather than abort
         match std::panic::catch_unwind(|| keycomp_mesh::read_mesh(&path)) {
             Ok(Ok(loaded)) => out.push(("nefertiti".to_string(), loaded.mesh)),
             Ok(Err(e)) => eprintln!("skipping nefertiti: {e}"),
             Err(_) => eprintln!("skipping nefertiti: mesh reading is not available"),
         }
-    } else {
-        eprintln!("skipping nefertiti: {} not found", path.display());
     }
     out
 }

@@ -4,16 +4,11 @@
 //!
 //! `cargo bench -p keycomp-geodesic --bench geodesic_table`
 
-use std::path::Path;
 use std::time::Instant;
 
 use keycomp_geodesic::{GeodesicSolver, distance_matrix};
 use keycomp_mesh::{Mesh, Topology, synth};
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
+use keycomp_test_support::{median, shared_data};
 
 fn row(name: &str, mesh: &Mesh) -> Result<String, Box<dyn std::error::Error>> {
     let topo = Topology::new(mesh);
@@ -82,18 +77,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "{}",
         row("torus 250×200", &synth::torus(2.0, 0.6, 250, 200))?
     );
-    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data");
     for file in [
         "models/nefertiti.obj",
         "models/armadillo.obj",
         "models/horse.ply",
         "kids/0001.null.0.off",
     ] {
-        let path = data.join(file);
-        if !path.exists() {
-            eprintln!("skipping {}: not found", path.display());
+        let Some(path) = shared_data(file) else {
             continue;
-        }
+        };
         // reading may not be implemented yet in this build: skip rather than abort
         match std::panic::catch_unwind(|| keycomp_mesh::read_mesh(&path)) {
             Ok(Ok(loaded)) => println!("{}", row(file, &loaded.mesh)?),

@@ -4,35 +4,11 @@
 
 #![allow(clippy::unwrap_used)] // helpers outside #[test] fns, in a test crate
 
-use std::cmp::Reverse;
-use std::collections::BinaryHeap;
-
 use keycomp_geodesic::{GeodesicParams, GeodesicSolver, distance_matrix};
 use keycomp_mesh::{Mesh, Point3, Topology, synth};
+use keycomp_test_support::edge_path_distances;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-
-/// Plain Dijkstra on the edge graph (the baseline fast marching must beat).
-fn dijkstra(mesh: &Mesh, topo: &Topology, source: u32) -> Vec<f64> {
-    let mut d = vec![f64::INFINITY; mesh.num_vertices()];
-    let mut heap = BinaryHeap::new();
-    d[source as usize] = 0.0;
-    heap.push(Reverse((0u64, source)));
-    while let Some(Reverse((k, v))) = heap.pop() {
-        let dv = f64::from_bits(k);
-        if dv > d[v as usize] {
-            continue;
-        }
-        for &w in topo.neighbors(v) {
-            let c = dv + (mesh.positions[w as usize] - mesh.positions[v as usize]).norm();
-            if c < d[w as usize] {
-                d[w as usize] = c;
-                heap.push(Reverse((c.to_bits(), w)));
-            }
-        }
-    }
-    d
-}
 
 /// Mean relative error of `d` against `exact` over vertices with exact distance > `min`.
 fn mean_rel(d: &[f64], exact: &[f64], min: f64) -> (f64, f64) {
@@ -75,7 +51,9 @@ fn sphere_great_circles() {
         let (m, mx) = mean_rel(ws.distances(), &exact, 0.1);
         fmm += m / sources.len() as f64;
         fmm_max = fmm_max.max(mx);
-        dij += mean_rel(&dijkstra(&mesh, &topo, s), &exact, 0.1).0 / sources.len() as f64;
+        // plain Dijkstra on the edge graph: the baseline fast marching must beat
+        let dijkstra = edge_path_distances(&mesh.positions, &mesh.faces, &[s]);
+        dij += mean_rel(&dijkstra, &exact, 0.1).0 / sources.len() as f64;
     }
     println!(
         "icosphere(6): mean relative error FMM {:.4} % (max {:.3} %), Dijkstra {:.3} %",

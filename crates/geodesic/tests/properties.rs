@@ -7,6 +7,7 @@
 
 use keycomp_geodesic::{GeodesicParams, GeodesicSolver, QueueKind, distance_matrix};
 use keycomp_mesh::{Mesh, Point3, Topology, synth};
+use keycomp_test_support::edge_path_distances;
 use proptest::prelude::*;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -45,28 +46,6 @@ fn random_terrain(seed: u64) -> Mesh {
     m
 }
 
-fn dijkstra(mesh: &Mesh, topo: &Topology, source: u32) -> Vec<f64> {
-    use std::cmp::Reverse;
-    let mut d = vec![f64::INFINITY; mesh.num_vertices()];
-    let mut heap = std::collections::BinaryHeap::new();
-    d[source as usize] = 0.0;
-    heap.push(Reverse((0u64, source)));
-    while let Some(Reverse((k, v))) = heap.pop() {
-        let dv = f64::from_bits(k);
-        if dv > d[v as usize] {
-            continue;
-        }
-        for &w in topo.neighbors(v) {
-            let c = dv + (mesh.positions[w as usize] - mesh.positions[v as usize]).norm();
-            if c < d[w as usize] {
-                d[w as usize] = c;
-                heap.push(Reverse((c.to_bits(), w)));
-            }
-        }
-    }
-    d
-}
-
 fn check_mesh(mesh: &Mesh, picks: &[usize]) -> Result<(), TestCaseError> {
     let topo = Topology::new(mesh);
     let solver = GeodesicSolver::new(mesh, &topo).unwrap();
@@ -91,7 +70,7 @@ fn check_mesh(mesh: &Mesh, picks: &[usize]) -> Result<(), TestCaseError> {
     for (f, &s) in fields.iter().zip(&ids) {
         prop_assert_eq!(f[s as usize], 0.0);
         prop_assert!(f.iter().all(|d| *d >= 0.0 && d.is_finite()));
-        let dij = dijkstra(mesh, &topo, s);
+        let dij = edge_path_distances(&mesh.positions, &mesh.faces, &[s]);
         for (a, b) in f.iter().zip(&dij) {
             // never above the edge-graph distance (f32 edge lengths: 1e-6 relative slack)
             prop_assert!(*a <= b * (1.0 + 1e-6) + 1e-12, "{a} > dijkstra {b}");
