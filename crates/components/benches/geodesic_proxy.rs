@@ -19,14 +19,15 @@
 //! split from ANGLE degrees, and optionally landmark fronts: L landmarks, short fronts stopped
 //! at F covering radii (default 2); a suffix `#C` simplifies in cells of at least C vertices
 //! (`GeodesicOptions::proxy_cell_vertices`; none: one cell). Threads: the global rayon pool
-//! (`RAYON_NUM_THREADS=2` for the two-thread figures). The `--bench` flag that `cargo bench`
-//! passes is ignored.
+//! (`RAYON_NUM_THREADS=2` for the two-thread figures). MESH paths are relative to the
+//! workspace root. The `--bench` flag that `cargo bench` passes is ignored.
 
 use std::time::Instant;
 
 use keycomp_components::{GeodesicOptions, keypoint_distances};
 use keycomp_harris::HarrisParams;
 use keycomp_mesh::{Mesh, Topology, VertexId, geometry, read_mesh, synth};
+use keycomp_test_support::{median, workspace_path};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -48,11 +49,6 @@ fn compare(a: &[f64], reference: &[f64], k: usize) -> (f64, f64, f64) {
         }
     }
     (sum / n.max(1) as f64, max, abs)
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 fn parse_setting(s: &str) -> Res<GeodesicOptions> {
@@ -211,7 +207,8 @@ fn main() -> Res<()> {
         )?;
     }
     for f in &files {
-        let mesh = read_mesh(std::path::Path::new(f))?.mesh;
+        // `cargo bench` runs in crates/components
+        let mesh = read_mesh(&workspace_path(f))?.mesh;
         let (norm, _) = geometry::normalize_unit_area(&mesh);
         let topo = Topology::new(&norm);
         let harris = keycomp_harris::detect(&norm, &topo, &HarrisParams::default())?;

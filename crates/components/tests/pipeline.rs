@@ -1,9 +1,10 @@
 //! Key-component detection end to end on synthetic and real meshes.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use keycomp_components::{DetectParams, Detection, GeodesicOptions, detect, keypoint_distances};
 use keycomp_mesh::{Mesh, Point3, Topology, Vector3, geometry, read_mesh, synth};
+use keycomp_test_support::shared_data;
 use nalgebra::{Rotation3, Unit};
 
 /// Area-weighted intersection over union of two vertex sets (barycentric vertex areas).
@@ -281,21 +282,11 @@ fn rigid_motion_and_uniform_scale_give_the_same_components() {
     }
 }
 
-fn shared_data() -> Option<PathBuf> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data");
-    if p.is_dir() {
-        Some(p)
-    } else {
-        eprintln!("skipping: ../shared/data not found");
-        None
-    }
-}
-
 /// TOSCA poses share vertex numbering, so each pose's components map to cat0 by vertex id.
 /// Run with the fronts on the full mesh (the paper's method) and with the default options.
 #[test]
 fn tosca_cat_poses_repeat_cat0_components() {
-    let Some(data) = shared_data() else { return };
+    let Some(data) = shared_data("") else { return };
     for params in [with_proxy(0), DetectParams::default()] {
         println!(
             "geodesic options: {:?}{}",
