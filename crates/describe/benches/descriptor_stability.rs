@@ -11,17 +11,11 @@
 //! (DATA_DIR: default `../shared/data`, a relative path taken from the workspace root;
 //! SMOOTHING: Taubin λ|μ pairs before describing, default 30 as in `DescribeParams`).
 
-use std::path::{Path, PathBuf};
-
 use keycomp_bench::{Kind, Pullback, overlap, transform};
 use keycomp_components::{DetectParams, detect};
 use keycomp_describe::{DescribeParams, describe_with, distance};
 use keycomp_mesh::{Topology, geometry, read_mesh};
-
-fn median(mut v: Vec<f32>) -> Option<f32> {
-    v.sort_by(f32::total_cmp);
-    (!v.is_empty()).then(|| v[v.len() / 2])
-}
+use keycomp_test_support::{SHARED_DATA, median, workspace_path};
 
 /// The bench's command line, its name first, without the `--bench` flag `cargo bench` appends;
 /// `None` when `cargo bench` did not run it (`cargo test --benches` and `--all-targets` run
@@ -42,9 +36,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         return Ok(());
     };
     // relative to the workspace root (`cargo bench` runs a bench in its crate's folder)
-    let data: PathBuf = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../..")
-        .join(args.get(1).map_or("../shared/data", String::as_str));
+    let data = workspace_path(args.get(1).map_or(SHARED_DATA, String::as_str));
     let nulls = [
         "tosca/cat0.off",
         "tosca/centaur0.off",
@@ -109,9 +101,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "| transformation (strength 3) | corresponding: n, median distance | non-corresponding: n, median distance |"
     );
     println!("|---|---:|---:|");
-    let fmt = |v: &Vec<f32>| match median(v.clone()) {
-        Some(m) => format!("{}, {m:.3}", v.len()),
-        None => "0, –".to_string(),
+    let fmt = |v: &Vec<f32>| {
+        if v.is_empty() {
+            "0, –".to_string()
+        } else {
+            let m = median(v.iter().copied().map(f64::from).collect());
+            format!("{}, {m:.3}", v.len())
+        }
     };
     let (mut all_c, mut all_n) = (Vec::new(), Vec::new());
     for (kind, c, n) in &rows {

@@ -1,13 +1,12 @@
 //! Descriptor properties on synthetic and real meshes.
 
-use std::path::{Path, PathBuf};
-
 use keycomp_components::{DetectParams, detect};
 use keycomp_describe::{
     DIM, DescribeParams, HISTOGRAMS, NO_DISTANCE, SIZE_WEIGHT, Units, describe, describe_with,
     distance,
 };
 use keycomp_mesh::{Mesh, Vector3, geometry, read_mesh, synth};
+use keycomp_test_support::shared_data;
 use nalgebra::{Rotation3, Unit};
 
 #[test]
@@ -166,22 +165,12 @@ fn descriptors_are_invariant_to_rigid_motion_and_scale() {
     }
 }
 
-fn shared_data() -> Option<PathBuf> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data");
-    if p.is_dir() {
-        Some(p)
-    } else {
-        eprintln!("skipping: ../shared/data not found");
-        None
-    }
-}
-
 /// Corresponding components (same region of cat0 in another pose, found by area IoU > 0.5
 /// through the shared vertex numbering) must be closer in descriptor space than
 /// non-corresponding ones.
 #[test]
 fn corresponding_components_are_closer_than_others_on_tosca_cats() {
-    let Some(data) = shared_data() else { return };
+    let Some(data) = shared_data("") else { return };
     // geodesics on the meshes themselves (the paper's), so that which components correspond
     // does not hang on the speed options of detection: this is a property of the descriptors
     let p = DetectParams {
