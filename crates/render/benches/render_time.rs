@@ -4,8 +4,9 @@
 //! cargo bench -p keycomp-render --bench render_time [-- OUT_DIR]
 //! ```
 //!
-//! Meshes: `../shared/data/models/nefertiti.obj` (skipped with a message when absent; found
-//! relative to the workspace root or via `KEYCOMP_DATA`) and
+//! OUT_DIR, when given, is relative to the workspace root. Meshes:
+//! `../shared/data/models/nefertiti.obj` (skipped with a message when absent; found relative to
+//! the workspace root, or in the folder `KEYCOMP_DATA` names, itself relative to the root) and
 //! `synth::textured_protrusion_sphere(6)`. Each is coloured by height and rendered at 512 px
 //! with 2×2 supersampling; the table shows the median of several runs. The `--bench` flag that
 //! `cargo bench` passes is ignored.
@@ -15,6 +16,7 @@ use std::time::Instant;
 
 use keycomp_mesh::{Mesh, read_mesh, synth};
 use keycomp_render::{RenderParams, UpAxis, render};
+use keycomp_test_support::{SHARED_DATA, median, workspace_path};
 
 /// Blue → teal → yellow ramp for the example's height colouring.
 fn ramp(t: f64) -> [u8; 3] {
@@ -39,10 +41,8 @@ fn by_height(mesh: &Mesh, axis: usize) -> Vec<[u8; 3]> {
 }
 
 fn data_dir() -> PathBuf {
-    std::env::var_os("KEYCOMP_DATA").map_or_else(
-        || Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"),
-        PathBuf::from,
-    )
+    // `cargo bench` runs in crates/render
+    std::env::var_os("KEYCOMP_DATA").map_or_else(|| workspace_path(SHARED_DATA), workspace_path)
 }
 
 fn time(name: &str, mesh: &Mesh, colors: &[[u8; 3]], params: &RenderParams, out: Option<&Path>) {
@@ -54,14 +54,14 @@ fn time(name: &str, mesh: &Mesh, colors: &[[u8; 3]], params: &RenderParams, out:
             return;
         }
     };
-    let mut ms: Vec<f64> = (0..7)
+    let ms: Vec<f64> = (0..7)
         .map(|_| {
             let t = Instant::now();
             let _ = render(mesh, colors, params);
             t.elapsed().as_secs_f64() * 1e3
         })
         .collect();
-    ms.sort_by(f64::total_cmp);
+    let min_ms = ms.iter().copied().fold(f64::INFINITY, f64::min);
     let t = Instant::now();
     let png = image.to_png_bytes().map(|b| b.len()).unwrap_or(0);
     let png_ms = t.elapsed().as_secs_f64() * 1e3;
@@ -70,8 +70,8 @@ fn time(name: &str, mesh: &Mesh, colors: &[[u8; 3]], params: &RenderParams, out:
         mesh.num_vertices(),
         mesh.num_faces(),
         params.size,
-        ms[0],
-        ms[ms.len() / 2],
+        min_ms,
+        median(ms),
         png_ms,
         png / 1024
     );
@@ -88,7 +88,7 @@ fn main() {
     let out = std::env::args()
         .skip(1)
         .find(|a| a != "--bench")
-        .map(PathBuf::from);
+        .map(workspace_path);
     println!(
         "rayon threads: {}; 2x2 supersampling, smooth shading, outline on",
         rayon::current_num_threads()
