@@ -8,10 +8,9 @@
 //! Real meshes are read from `../shared/data` (relative to the workspace root) and skipped
 //! with a message when absent.
 
-use std::path::Path;
-
 use keycomp_mesh::{Mesh, read_mesh, synth};
 use keycomp_spectral::{Spectrum, SpectrumParams};
+use keycomp_test_support::shared_data;
 
 /// The bench's command line, its name first, without the `--bench` flag `cargo bench` appends;
 /// `None` when `cargo bench` did not run it (`cargo test --benches` and `--all-targets` run
@@ -37,10 +36,11 @@ fn main() {
     } else {
         counts
     };
-    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data");
     let mut meshes: Vec<(String, Mesh)> = vec![("icosphere(5)".into(), synth::icosphere(5, 1.0))];
     for rel in ["tosca/cat0.off", "models/nefertiti.obj"] {
-        let path = data.join(rel);
+        let Some(path) = shared_data(rel) else {
+            continue;
+        };
         match read_mesh(&path) {
             Ok(loaded) => meshes.push((rel.to_string(), loaded.mesh)),
             Err(e) => eprintln!("skipping {rel}: {e}"),
