@@ -6,10 +6,12 @@
 //!     [MESH|synth] [edge|vertex] [time] [delta] [min_diversity] [max_variation]
 //! ```
 //!
-//! The `--bench` flag that `cargo bench` passes is ignored.
+//! MESH is relative to the workspace root. The `--bench` flag that `cargo bench` passes is
+//! ignored.
 
 use keycomp_mesh::{read_mesh, synth};
 use keycomp_mser::{MserParams, StableParams, detect};
+use keycomp_test_support::workspace_path;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     // `cargo bench` adds `--bench`
@@ -19,7 +21,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .collect();
     let mesh = match args.first().map(String::as_str) {
         None | Some("synth") => synth::protrusion_sphere(5, 0.8, 0.25),
-        Some(path) => read_mesh(std::path::Path::new(path))?.mesh,
+        // `cargo bench` runs in crates/mser
+        Some(path) => read_mesh(&workspace_path(path))?.mesh,
     };
     let d = MserParams::default();
     let params = MserParams {
