@@ -1,18 +1,15 @@
 //! Wall time of detection and of description per mesh, median of `--runs` (default 3).
 //!
 //! `cargo bench -p keycomp --bench analysis_time -- [--runs N] [--layout-reach R|none] MESH...`
+//! (MESH paths relative to the workspace root)
 //!
 //! Prints one line per mesh: vertices, parts, detection ms, description ms, and their ratio.
 
 use keycomp::analysis::Profile;
 use keycomp_components::{DetectParams, detect};
 use keycomp_describe::describe_with;
+use keycomp_test_support::{median, workspace_path};
 use std::time::Instant;
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     // `cargo bench` passes `--bench` to a harness-free bench
@@ -35,7 +32,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     println!("mesh | vertices | parts | detect ms | describe ms | describe / detect");
     for path in &args {
-        let mesh = keycomp_mesh::read_mesh(std::path::Path::new(path))?.mesh;
+        // `cargo bench` runs in crates/keycomp
+        let mesh = keycomp_mesh::read_mesh(&workspace_path(path))?.mesh;
         let (mut td, mut tp, mut parts) = (Vec::new(), Vec::new(), 0);
         for _ in 0..runs {
             let t = Instant::now();
