@@ -18,11 +18,12 @@
 use std::time::Instant;
 
 mod common;
-use common::{bench_args, env_path, grown_copy, median, resident_mb, workspace_path};
+use common::{bench_args, env_path, grown_copy, resident_mb};
 use hnsw_rs::prelude::{DistL2, Hnsw};
 use keycomp_describe::DIM;
 use keycomp_index::{IndexReader, IndexWriter, SearchMode, ShapeId, ShapeRecord};
 use keycomp_retrieval::CANDIDATES_PER_COMPONENT;
+use keycomp_test_support::{median, workspace_path};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 

@@ -34,14 +34,13 @@
 use std::time::Instant;
 
 mod common;
-use common::{
-    bench_args, env_path, grown_copy, median, perturbed_query, resident_mb, view, workspace_path,
-};
+use common::{bench_args, env_path, grown_copy, perturbed_query, resident_mb, view};
 use keycomp_describe::DIM;
 use keycomp_index::{IndexReader, IndexWriter, SearchMode, synthetic};
 use keycomp_retrieval::{
     CANDIDATES_PER_COMPONENT, MatchParams, ShapeView, rank, rank_hypotheses, rank_neighbours,
 };
+use keycomp_test_support::{median, workspace_path};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 

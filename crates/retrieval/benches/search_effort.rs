@@ -34,15 +34,13 @@
 use std::time::Instant;
 
 mod common;
-use common::{
-    bench_args, disk_read_bytes, env_path, grown_copy, median, perturbed_query, view,
-    workspace_path,
-};
+use common::{bench_args, disk_read_bytes, env_path, grown_copy, perturbed_query, view};
 use keycomp_describe::DIM;
 use keycomp_index::{
     ComponentMatch, IndexReader, IndexWriter, SearchEffort, SearchMode, ShapeId, ShapeRecord,
 };
 use keycomp_retrieval::{CANDIDATES_PER_COMPONENT, MatchParams, rank_neighbours};
+use keycomp_test_support::{median, workspace_path};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 

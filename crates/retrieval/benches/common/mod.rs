@@ -1,13 +1,15 @@
 #![allow(dead_code)] // each bench uses a part of this module
 //! What this crate's scale benches (`query_scale`, `ann_compare`, `search_effort`) share: their
 //! command line under `cargo bench`, the grown copies of real records, the queries made of
-//! indexed records, resident memory, medians.
+//! indexed records, resident memory. Paths from the workspace root and medians come from
+//! `keycomp_test_support`.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use keycomp_describe::DIM;
 use keycomp_index::{IndexReader, ShapeId, ShapeRecord};
 use keycomp_retrieval::ShapeView;
+use keycomp_test_support::workspace_path;
 use rand::Rng;
 
 /// The bench's command line, its name first, without the `--bench` flag `cargo bench` appends;
@@ -24,15 +26,8 @@ pub fn bench_args() -> Option<Vec<String>> {
     Some(args.into_iter().filter(|a| a != "--bench").collect())
 }
 
-/// A path from the command line or the environment, a relative one taken from the workspace
-/// root (`cargo bench` runs a bench in its crate's folder).
-pub fn workspace_path(path: impl AsRef<Path>) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../..")
-        .join(path)
-}
-
-/// The path in the environment variable `var`, as [`workspace_path`] takes it.
+/// The path in the environment variable `var`, a relative one taken from the workspace root
+/// (`cargo bench` runs a bench in its crate's folder).
 pub fn env_path(var: &str) -> Option<PathBuf> {
     std::env::var_os(var).map(workspace_path)
 }
@@ -71,12 +66,6 @@ pub fn resident_mb() -> Option<f64> {
 /// `/proc/self/io`: reads served by the page cache are not counted).
 pub fn disk_read_bytes() -> Option<u64> {
     proc_number("io", "read_bytes:")
-}
-
-/// The median (the upper one of an even count) of a non-empty list.
-pub fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 /// A query: its part descriptors and its layout.
