@@ -8,8 +8,9 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use common::{keycomp, s, shared_data, stderr, stdout};
+use common::{keycomp, s, stderr, stdout};
 use keycomp_mesh::{Mesh, Point3, synth, write_off};
+use keycomp_test_support::shared_data;
 use serde_json::Value;
 
 /// Three classes of three shapes each, written as OFF files into the new folder `dir/shapes`
@@ -439,7 +440,7 @@ fn bad_arguments_exit_2_with_a_clear_message() {
 #[cfg(unix)]
 #[test]
 fn faust_subset_real_data() {
-    let Some(data) = shared_data() else { return };
+    let Some(data) = shared_data("") else { return };
     let faust = data.join("faust");
     let tmp = tempfile::tempdir().unwrap();
     let coll = tmp.path().join("faust");

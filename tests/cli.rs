@@ -6,9 +6,10 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
 use keycomp_mesh::{read_mesh, synth, write_off};
+use keycomp_test_support::shared_data;
 use serde_json::Value;
 
-use common::{keycomp, shared_data, stderr, stdout};
+use common::{keycomp, stderr, stdout};
 
 /// Writes a synthetic protrusion shape as OFF in `dir` and returns its path.
 fn protrusion_off(dir: &Path) -> PathBuf {
@@ -305,7 +306,7 @@ fn closed_stdout_pipe_exits_cleanly() {
 
 #[test]
 fn keypoints_on_real_meshes() {
-    let Some(data) = shared_data() else { return };
+    let Some(data) = shared_data("") else { return };
     let o = keycomp(&[
         "detect",
         data.join("tosca/cat0.off").to_str().expect("utf8"),

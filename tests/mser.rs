@@ -8,9 +8,10 @@ use keycomp_bench::{best_overlaps, repeatability};
 use keycomp_mesh::geometry::vertex_areas;
 use keycomp_mesh::{read_mesh, synth, write_off};
 use keycomp_mser::{MserParams, Output, detect};
+use keycomp_test_support::shared_data;
 use serde_json::Value;
 
-use common::{keycomp, s, shared_data, stderr, stdout};
+use common::{keycomp, s, stderr, stdout};
 
 fn ids(v: &Value) -> Vec<u32> {
     v.as_array()
@@ -161,7 +162,7 @@ fn bench_repeatability_prints_tables_5_and_6() {
 /// repeatability the benchmark's isometry row is made of. Prints the numbers.
 #[test]
 fn mser_key_components_repeat_across_tosca_poses() {
-    let Some(data) = shared_data() else {
+    let Some(data) = shared_data("") else {
         return;
     };
     let params = MserParams::default();

@@ -6,9 +6,10 @@ mod common;
 use std::path::{Path, PathBuf};
 
 use keycomp_mesh::{Point3, Vector3, cut, geometry, read_mesh, synth, write_off};
+use keycomp_test_support::shared_data;
 use serde_json::Value;
 
-use common::{keycomp, s, shared_data, stderr};
+use common::{keycomp, s, stderr};
 
 fn class_of(path: &str) -> String {
     let name = Path::new(path)
@@ -23,7 +24,7 @@ fn class_of(path: &str) -> String {
 /// through their centroid: the source shape's class must come first.
 #[test]
 fn partial_queries_find_their_class_on_tosca() {
-    let Some(data) = shared_data() else { return };
+    let Some(data) = shared_data("") else { return };
     let dir = tempfile::tempdir().expect("tempdir");
     let index = dir.path().join("index");
     let tosca = data.join("tosca");

@@ -1,9 +1,9 @@
-//! Helpers shared by the end-to-end tests: running the real `keycomp` binary and finding the
-//! research meshes.
+//! Helpers shared by the end-to-end tests: running the real `keycomp` binary. The research
+//! meshes are found by `keycomp_test_support::shared_data`.
 
 #![allow(dead_code)] // each test file uses a different subset
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 
 /// Runs the `keycomp` binary built for these tests.
@@ -27,15 +27,4 @@ pub fn stderr(o: &Output) -> String {
 /// A path as a `&str` argument.
 pub fn s(p: &Path) -> &str {
     p.to_str().expect("utf8 path")
-}
-
-/// `../shared/data`, or `None` after printing a skip message when it is absent.
-pub fn shared_data() -> Option<PathBuf> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data");
-    if p.is_dir() {
-        Some(p)
-    } else {
-        eprintln!("skipping: ../shared/data not found");
-        None
-    }
 }
