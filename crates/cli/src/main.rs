@@ -21,7 +21,12 @@ use clap::{Parser, Subcommand};
 
 /// Key-components of 3D meshes: detect salient regions, index shapes, query by example.
 #[derive(Debug, Parser)]
-#[command(name = "keycomp", version, about, long_about = None)]
+#[command(
+    name = "keycomp",
+    version,
+    about = "Key-component detection, description and partial retrieval for 3D meshes (Sipiran & Bustos 2013)",
+    long_about = None
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
