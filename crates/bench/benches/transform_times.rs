@@ -1,14 +1,14 @@
 //! Times every transformation at every strength on a mesh and prints a table.
 //!
 //! `cargo bench -p keycomp-bench --bench transform_times -- ../shared/data/kids/0001.null.0.off`
-//! (the `--bench` flag that `cargo bench` passes is ignored; without a mesh it prints its usage
-//! and measures nothing)
+//! (the mesh's path relative to the workspace root; the `--bench` flag that `cargo bench` passes
+//! is ignored; without a mesh it prints its usage and measures nothing)
 
-use std::path::PathBuf;
 use std::time::Instant;
 
 use keycomp_bench::{Kind, Pullback, transform};
 use keycomp_mesh::{Topology, read_mesh};
+use keycomp_test_support::workspace_path;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     // `cargo bench` adds `--bench`
@@ -16,7 +16,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         eprintln!("usage: cargo bench -p keycomp-bench --bench transform_times -- MESH");
         return Ok(());
     };
-    let path = PathBuf::from(path);
+    // `cargo bench` runs in crates/bench
+    let path = workspace_path(path);
     let null = read_mesh(&path)?.mesh;
     let topo = Topology::new(&null);
     println!(

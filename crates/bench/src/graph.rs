@@ -186,6 +186,30 @@ mod tests {
     }
 
     #[test]
+    fn distances_match_the_edge_path_oracle() {
+        // a bumpy sphere, so that edges differ in length and paths in shape
+        let mut m = synth::icosphere(3, 1.0);
+        for (i, p) in m.positions.iter_mut().enumerate() {
+            *p *= 1.0 + 0.2 * (1.7 * i as f64).sin();
+        }
+        let t = Topology::new(&m);
+        let sources = [(5, 0), (300, 1), (611, 2)];
+        let mut got = vec![f64::NAN; m.num_vertices()];
+        dijkstra(&m.positions, &t, &sources, f64::INFINITY, |v, d, _| {
+            got[v as usize] = d;
+            true
+        });
+        let ids: Vec<u32> = sources.iter().map(|s| s.0).collect();
+        let oracle = keycomp_test_support::edge_path_distances(&m.positions, &m.faces, &ids);
+        for (v, (a, b)) in got.iter().zip(&oracle).enumerate() {
+            assert!(
+                (a - b).abs() <= 1e-12 * b.max(1.0),
+                "vertex {v}: {a} vs {b}"
+            );
+        }
+    }
+
+    #[test]
     fn coincident_sources_keep_their_labels() {
         let mut m = synth::grid(2, 1, 1.0);
         m.positions[1] = m.positions[0];

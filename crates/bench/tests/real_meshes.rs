@@ -1,20 +1,14 @@
 //! Transformations and the pullback on real meshes from `../shared/data` (skipped with a
 //! message when the folder is absent).
 
-use std::path::PathBuf;
-
 use keycomp_bench::{Kind, Pullback, overlap, transform};
 use keycomp_mesh::geometry::{total_area, vertex_areas};
 use keycomp_mesh::{Mesh, Topology, read_mesh};
+use keycomp_test_support::shared_data;
 
+/// The shared mesh `rel`, or `None` after a skip message when it is absent.
 fn shared(rel: &str) -> Option<Mesh> {
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/data")
-        .join(rel);
-    if !path.exists() {
-        eprintln!("skipping: {} not found", path.display());
-        return None;
-    }
+    let path = shared_data(rel)?;
     Some(read_mesh(&path).expect("shared mesh reads").mesh)
 }
 

@@ -229,11 +229,11 @@ mod tests {
             synth::protrusion_sphere(3, 0.5, 0.4),
         ];
         // a real mesh when the shared data is present
-        let real = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../../../shared/data/watertight/1.off");
-        match keycomp_mesh::read_mesh(&real) {
-            Ok(m) => meshes.push(m.mesh),
-            Err(_) => eprintln!("skipping the real mesh: {} not readable", real.display()),
+        if let Some(real) = keycomp_test_support::shared_data("watertight/1.off") {
+            match keycomp_mesh::read_mesh(&real) {
+                Ok(m) => meshes.push(m.mesh),
+                Err(_) => eprintln!("skipping the real mesh: {} not readable", real.display()),
+            }
         }
         for m in &meshes {
             // bitwise equal, not merely close
