@@ -41,7 +41,7 @@ use keycomp_mesh::{Mesh, VertexId};
 use keycomp_mser::MserParams;
 use xxhash_rust::xxh3::{Xxh3, xxh3_64};
 
-use crate::BenchError;
+use crate::error::BenchError;
 use crate::staged::Embedded;
 
 /// Version of the cache file layout.

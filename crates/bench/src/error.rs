@@ -4,8 +4,6 @@ use std::path::PathBuf;
 
 use keycomp_mesh::MeshError;
 
-use crate::transform::Kind;
-
 /// Everything that can go wrong generating a transformed shape, reading or writing a
 /// correspondence file, or evaluating components.
 #[derive(Debug, thiserror::Error)]
@@ -17,7 +15,7 @@ pub enum BenchError {
         /// The strength given.
         strength: u8,
     },
-    /// A transformation name that is not one of the [`Kind`]s.
+    /// A transformation name that is not one of the [`Kind`](crate::Kind)s.
     #[error(
         "unknown transformation '{name}': use one of holes, microholes, noise, shotnoise, scale, \
          localscale, topology, sampling"
@@ -32,8 +30,8 @@ pub enum BenchError {
     /// A transformation produced a mesh that does not validate (for example every face removed).
     #[error("the {kind} transformation produced an invalid mesh: {source}")]
     InvalidOutput {
-        /// The transformation.
-        kind: Kind,
+        /// The transformation's name ([`Kind::name`](crate::Kind::name)).
+        kind: &'static str,
         /// Why the mesh does not validate.
         #[source]
         source: MeshError,

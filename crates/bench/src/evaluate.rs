@@ -36,7 +36,7 @@
 use keycomp_mesh::{Mesh, Topology, VertexId};
 use serde::{Deserialize, Serialize};
 
-use crate::BenchError;
+use crate::error::BenchError;
 use crate::graph::dijkstra;
 use crate::transform::MAX_STRENGTH;
 

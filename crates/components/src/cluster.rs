@@ -45,7 +45,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::ComponentsError;
+use crate::error::ComponentsError;
 
 /// Parameters of Algorithm 1 ([`adaptive_clustering`]). Distances are in the units of the 2-D
 /// embedding, i.e. geodesic distance on the mesh normalised to unit surface area. The default is

@@ -33,7 +33,7 @@
 
 use keycomp_mesh::{Mesh, Topology, VertexId};
 
-use crate::ComponentsError;
+use crate::error::ComponentsError;
 use crate::sphere::Sphere;
 
 /// The geodesic centre of a cluster (Eq. 2): the member of `cluster` (indices into `points2d`)

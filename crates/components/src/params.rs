@@ -39,7 +39,10 @@ use serde::{Deserialize, Serialize};
 
 use keycomp_harris::{HarrisParams, Selection};
 
-use crate::{ClusterParams, ComponentsError, SmacofParams, SphereRule};
+use crate::cluster::ClusterParams;
+use crate::error::ComponentsError;
+use crate::smacof::SmacofParams;
+use crate::sphere::SphereRule;
 
 /// Everything this crate needs to turn keypoints and their geodesic distances into
 /// key-components. The default is the paper's KC-1.

@@ -78,10 +78,12 @@ use keycomp_harris::{HarrisError, HarrisParams};
 use keycomp_mesh::{Mesh, Point3, Topology, VertexId, geometry, simplify};
 use serde::{Deserialize, Serialize};
 
-use crate::{
-    ClusterParams, Component, ComponentParams, ComponentsError, Embedding, RegionGrower, Sphere,
-    SphereRule, adaptive_clustering, geodesic_center, smacof,
-};
+use crate::cluster::{ClusterParams, adaptive_clustering};
+use crate::error::ComponentsError;
+use crate::grow::{Component, RegionGrower, geodesic_center};
+use crate::params::ComponentParams;
+use crate::smacof::{Embedding, smacof};
+use crate::sphere::{Sphere, SphereRule};
 
 /// All parameters of detection: the keypoint detector, the components stage and the geodesic
 /// options. The default is the paper's KC-1 (1 % of the vertices as keypoints, R = 0.15,

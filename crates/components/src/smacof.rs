@@ -53,7 +53,7 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::ComponentsError;
+use crate::error::ComponentsError;
 
 /// Parameters of [`smacof`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

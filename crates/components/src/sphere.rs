@@ -38,7 +38,7 @@ use rand_chacha::ChaCha8Rng;
 
 use serde::{Deserialize, Serialize};
 
-use crate::ComponentsError;
+use crate::error::ComponentsError;
 
 /// Which sphere `(o, r)` bounds a cluster's region growing (Algorithm 2 grows inside `σ·r`
 /// of `o`).

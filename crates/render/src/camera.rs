@@ -3,7 +3,7 @@
 
 use keycomp_mesh::{Mesh, Point3, Vector3};
 
-use crate::RenderError;
+use crate::error::RenderError;
 use crate::params::{RenderParams, UpAxis};
 
 /// Orthographic camera mapping world points to sample coordinates: `x` to the right and `y`

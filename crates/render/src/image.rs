@@ -4,7 +4,7 @@
 use std::io::Write;
 use std::path::Path;
 
-use crate::RenderError;
+use crate::error::RenderError;
 
 /// An 8-bit sRGB image with straight (not premultiplied) alpha, rows top to bottom.
 #[derive(Debug, Clone, PartialEq, Eq)]

@@ -1,6 +1,6 @@
 //! Render parameters: image size, view, lighting, shading, anti-aliasing and outlines.
 
-use crate::RenderError;
+use crate::error::RenderError;
 
 /// Which world axis points up in the picture.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

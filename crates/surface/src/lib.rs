@@ -62,12 +62,10 @@ pub mod volume;
 
 pub use error::SurfaceError;
 pub use trim::nearest_vertices;
+pub use volume::MAX_NODES;
 
 use keycomp_mesh::{Mesh, Point3, Vector3, geometry};
 use serde::{Deserialize, Serialize};
-
-/// Most grid nodes of the offset volume (about 5 bytes each).
-pub const MAX_NODES: usize = 16_000_000;
 
 /// Surface-nets vertices per unit of area and squared spacing: a surface of area A on a grid
 /// of spacing h gets about `NETS_DENSITY · A / h²` vertices (a plane crosses more cells than

@@ -27,7 +27,7 @@ use keycomp_mesh::{Point3, Vector3};
 use nalgebra::Matrix3;
 use rayon::prelude::*;
 
-use crate::SurfaceError;
+use crate::error::SurfaceError;
 use crate::sample::{Samples, thin};
 use crate::trim::{kd_tree, nearest_ids};
 

@@ -9,7 +9,7 @@
 
 use keycomp_mesh::{Mesh, Point3, Vector3};
 
-use crate::SurfaceError;
+use crate::error::SurfaceError;
 
 /// Points with unit normals (zero where the side is unknown).
 #[derive(Debug, Clone, Default, PartialEq)]

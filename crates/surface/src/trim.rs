@@ -18,7 +18,7 @@ use kiddo::SquaredEuclidean;
 use kiddo::immutable::float::kdtree::ImmutableKdTree;
 use rayon::prelude::*;
 
-use crate::SurfaceError;
+use crate::error::SurfaceError;
 use crate::sample::Samples;
 use crate::volume::Volume;
 

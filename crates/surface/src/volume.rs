@@ -13,8 +13,11 @@
 use keycomp_mesh::Point3;
 use rayon::prelude::*;
 
+use crate::error::SurfaceError;
 use crate::sample::Samples;
-use crate::{MAX_NODES, SurfaceError};
+
+/// Most grid nodes of the offset volume (about 5 bytes each).
+pub const MAX_NODES: usize = 16_000_000;
 
 /// Nodes along z in one parallel slab.
 const SLAB: usize = 8;

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use keycomp_mesh::Format;
 use serde::Serialize;
 
-use crate::BenchError;
+use crate::error::BenchError;
 use crate::transform::MAX_STRENGTH;
 
 /// The name of the real-pose transformation.

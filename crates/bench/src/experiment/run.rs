@@ -14,7 +14,7 @@ use super::discover::NullSpec;
 use super::report::{PresetScores, REPORT_FORMAT, Report, RunStats, ShapeReport, Skipped};
 use super::score::{preset_report, thresholds};
 use super::shape::{CacheUse, Job, LoadedNull, Outcome, Source};
-use crate::BenchError;
+use crate::error::BenchError;
 use crate::evaluate::best_overlaps;
 use crate::transform::MAX_STRENGTH;
 

@@ -10,7 +10,7 @@
 use keycomp_mesh::simplify;
 
 use super::{Context, Transformed};
-use crate::BenchError;
+use crate::error::BenchError;
 
 /// Fraction of the referenced vertices kept per strength 1..=5.
 pub(super) const KEEP: [f64; 5] = [0.80, 0.60, 0.40, 0.25, 0.12];

@@ -16,7 +16,7 @@ use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 
 use super::{Context, Transformed, vertex_normals, weighted_centroid};
-use crate::BenchError;
+use crate::error::BenchError;
 use crate::graph::dijkstra;
 
 /// Noise σ per strength step, in units of L.

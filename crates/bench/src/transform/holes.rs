@@ -16,7 +16,7 @@ use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 
 use super::{Context, Transformed};
-use crate::BenchError;
+use crate::error::BenchError;
 use crate::graph::dijkstra;
 
 /// Number of big holes.

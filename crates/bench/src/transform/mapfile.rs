@@ -19,7 +19,7 @@ use std::path::Path;
 
 use keycomp_mesh::VertexId;
 
-use crate::BenchError;
+use crate::error::BenchError;
 
 /// The current format version.
 pub const MAP_VERSION: u32 = 1;

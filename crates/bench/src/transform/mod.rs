@@ -55,7 +55,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use crate::BenchError;
+use crate::error::BenchError;
 
 pub use mapfile::{MapFile, format_map, parse_map, read_map, write_map};
 
@@ -236,7 +236,7 @@ impl Context<'_> {
         let n = positions.len();
         let (mesh, _) =
             Mesh::from_raw(positions, faces).map_err(|source| BenchError::InvalidOutput {
-                kind: self.kind,
+                kind: self.kind.name(),
                 source,
             })?;
         Ok(Transformed {
@@ -270,7 +270,7 @@ impl Context<'_> {
             .collect();
         let (mesh, _) =
             Mesh::from_raw(positions, faces).map_err(|source| BenchError::InvalidOutput {
-                kind: self.kind,
+                kind: self.kind.name(),
                 source,
             })?;
         Ok(Transformed { mesh, map })

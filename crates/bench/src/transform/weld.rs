@@ -29,7 +29,7 @@ use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 
 use super::{Context, Transformed, vertex_normals};
-use crate::BenchError;
+use crate::error::BenchError;
 use crate::graph::Grid;
 
 /// Handles per strength step.

@@ -50,6 +50,7 @@ mod cache;
 mod collection;
 mod external;
 mod partial;
+mod repeatability;
 mod report;
 mod results;
 mod setup;
@@ -408,7 +409,7 @@ fn run_in_pool(args: Args) -> Result<ExitCode> {
         components_per_shape: records.iter().map(|r| r.components.len()).sum::<usize>() as f64
             / n as f64,
         query_sets: sets,
-        partial_repeatability: partial::repeatability_rows(&repeatability, args.area),
+        partial_repeatability: repeatability::repeatability_rows(&repeatability, args.area),
     };
     report::write(&results, &args, &methods)?;
     let times = Times {

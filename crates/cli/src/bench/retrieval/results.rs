@@ -11,7 +11,7 @@ use keycomp_describe::DescribeParams;
 use keycomp_retrieval::MatchParams;
 use serde::Serialize;
 
-use super::partial::RepeatabilityRow;
+use super::repeatability::RepeatabilityRow;
 
 /// A query's ranking scored for one method.
 #[derive(Debug, Serialize)]
