@@ -21,10 +21,12 @@
 
 pub mod check;
 mod classes;
+mod error;
 pub mod mesher;
 pub mod sdf;
 
 pub use classes::Class;
+pub use error::ShapesError;
 
 use keycomp_mesh::{Mesh, Point3, Vector3};
 use nalgebra::{Quaternion, UnitQuaternion};
@@ -33,27 +35,6 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
 use crate::mesher::{MeshParams, mesh_implicit};
-
-/// Errors of shape generation.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[non_exhaustive]
-pub enum ShapesError {
-    /// The mesher could not mesh the field (bad parameters or an empty or unbounded solid).
-    #[error("meshing failed: {0}")]
-    Mesher(String),
-    /// A generated mesh failed the surface check (a bug, or a resolution too coarse for the
-    /// thinnest part).
-    #[error("{name}: the generated mesh is not a valid closed surface: {problem}")]
-    InvalidSurface {
-        /// The shape's name.
-        name: String,
-        /// What is wrong.
-        problem: String,
-    },
-    /// Bad parameters.
-    #[error("invalid parameters: {0}")]
-    Params(String),
-}
 
 /// Smallest [`GenerateParams::target_vertices`]: below it the grid cells approach the
 /// thickness of wings, fins and tentacle tips, which can then break off or close into tunnels.

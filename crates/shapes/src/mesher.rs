@@ -50,7 +50,7 @@ use std::collections::HashMap;
 
 use keycomp_mesh::{Mesh, Point3, Vector3};
 
-use crate::ShapesError;
+use crate::error::ShapesError;
 
 /// Most grid samples [`mesh_implicit`] accepts (about 1 GB of samples would be 1.3e8).
 pub const MAX_SAMPLES: usize = 40_000_000;

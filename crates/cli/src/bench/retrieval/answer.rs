@@ -11,7 +11,7 @@ use keycomp_describe::DIM;
 use keycomp_index::ShapeRecord;
 use keycomp_retrieval::{MatchParams, rank_hypotheses};
 
-use super::Args;
+use super::args::Args;
 use super::baselines::Baseline;
 use super::cache::RecordCache;
 use crate::output;

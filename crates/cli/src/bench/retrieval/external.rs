@@ -9,8 +9,8 @@ use keycomp_index::ContentHash;
 use rayon::prelude::*;
 
 use super::answer::{Setting, kc_answer};
+use super::args::sub_seed;
 use super::results::{QueryResult, method_result};
-use super::sub_seed;
 use crate::progress::progress;
 
 /// The results of the external queries, in the order of `truth`.

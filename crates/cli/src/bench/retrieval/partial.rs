@@ -20,9 +20,9 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
 use super::answer::{Setting, kc_answer};
+use super::args::{Queries, stem, sub_seed};
 use super::repeatability::{Repeatability, partial_repeatability};
 use super::results::{QueryResult, method_result};
-use super::{Queries, stem, sub_seed};
 use crate::progress::progress;
 
 /// The partial queries' results by kind, and each fragment's repeatability (with

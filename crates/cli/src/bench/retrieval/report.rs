@@ -7,8 +7,8 @@ use anyhow::{Context, Result};
 use keycomp_bench::retrieval::pr_svg;
 use keycomp_bench::svg::Curve;
 
+use super::args::{Args, stem};
 use super::results::{QueryResult, Results};
-use super::{Args, stem};
 use crate::output;
 
 /// Writes `OUT/results.json` and `OUT/pr-<set>.svg`; `methods` are the baselines' (label,

@@ -16,7 +16,7 @@ use keycomp_describe::{DescribeParams, Units};
 use keycomp_fragment::PartialKind;
 use keycomp_retrieval::MatchParams;
 
-use super::{Args, Queries, detect_args, list_meshes, stem, sub_seed};
+use super::args::{Args, Queries, detect_args, list_meshes, stem, sub_seed};
 use crate::args::DetectArgs;
 
 /// What a run measures and with which parameters.

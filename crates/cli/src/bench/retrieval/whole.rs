@@ -10,8 +10,8 @@ use keycomp_index::ShapeRecord;
 use rayon::prelude::*;
 
 use super::answer::{Setting, kc_ranking};
+use super::args::sub_seed;
 use super::results::{QueryResult, method_result};
-use super::sub_seed;
 
 /// The results of the whole-shape queries, in collection order; `records` are the
 /// collection's index records.
