@@ -1,19 +1,23 @@
 //! Times every transformation at every strength on a mesh and prints a table.
 //!
 //! `cargo bench -p keycomp-bench --bench transform_times -- ../shared/data/kids/0001.null.0.off`
-//! (the mesh's path relative to the workspace root; the `--bench` flag that `cargo bench` passes
-//! is ignored; without a mesh it prints its usage and measures nothing)
+//! (the mesh's path relative to the workspace root; without a mesh, or when `cargo bench` did not
+//! run it, it prints its usage and measures nothing)
 
 use std::time::Instant;
 
 use keycomp_bench::{Kind, Pullback, transform};
 use keycomp_mesh::{Topology, read_mesh};
-use keycomp_test_support::workspace_path;
+use keycomp_test_support::{bench_args, workspace_path};
+
+const USAGE: &str = "cargo bench -p keycomp-bench --bench transform_times -- MESH";
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    // `cargo bench` adds `--bench`
-    let Some(path) = std::env::args_os().skip(1).find(|a| a != "--bench") else {
-        eprintln!("usage: cargo bench -p keycomp-bench --bench transform_times -- MESH");
+    let Some(args) = bench_args(USAGE) else {
+        return Ok(());
+    };
+    let Some(path) = args.get(1) else {
+        eprintln!("usage: {USAGE}");
         return Ok(());
     };
     // `cargo bench` runs in crates/bench

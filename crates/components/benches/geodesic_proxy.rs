@@ -20,14 +20,14 @@
 //! at F covering radii (default 2); a suffix `#C` simplifies in cells of at least C vertices
 //! (`GeodesicOptions::proxy_cell_vertices`; none: one cell). Threads: the global rayon pool
 //! (`RAYON_NUM_THREADS=2` for the two-thread figures). MESH paths are relative to the
-//! workspace root. The `--bench` flag that `cargo bench` passes is ignored.
+//! workspace root. When `cargo bench` did not run it, it prints its usage and measures nothing.
 
 use std::time::Instant;
 
 use keycomp_components::{GeodesicOptions, keypoint_distances};
 use keycomp_harris::HarrisParams;
 use keycomp_mesh::{Mesh, Topology, VertexId, geometry, read_mesh, synth};
-use keycomp_test_support::{median, workspace_path};
+use keycomp_test_support::{bench_args, median, workspace_path};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -148,7 +148,13 @@ fn run(
 }
 
 fn main() -> Res<()> {
-    let mut args = std::env::args().skip(1);
+    let Some(args) = bench_args(
+        "cargo bench -p keycomp-components --bench geodesic_proxy -- \
+         [--runs 3] [--settings 20000@90,0@110,...] [--sphere 6] MESH...",
+    ) else {
+        return Ok(());
+    };
+    let mut args = args.into_iter().skip(1);
     let mut runs = 3;
     let mut settings = Vec::new();
     let mut sphere = None;
@@ -162,8 +168,6 @@ fn main() -> Res<()> {
                 }
             }
             "--sphere" => sphere = Some(args.next().ok_or("--sphere L")?.parse::<u32>()?),
-            // added by `cargo bench`
-            "--bench" => {}
             _ => files.push(a),
         }
     }

@@ -15,24 +15,11 @@ use keycomp_bench::{Kind, Pullback, overlap, transform};
 use keycomp_components::{DetectParams, detect};
 use keycomp_describe::{DescribeParams, describe_with, distance};
 use keycomp_mesh::{Topology, geometry, read_mesh};
-use keycomp_test_support::{SHARED_DATA, median, workspace_path};
-
-/// The bench's command line, its name first, without the `--bench` flag `cargo bench` appends;
-/// `None` when `cargo bench` did not run it (`cargo test --benches` and `--all-targets` run
-/// bench targets too, and a measurement is no test).
-fn bench_args() -> Option<Vec<String>> {
-    let args: Vec<String> = std::env::args().collect();
-    if !args.iter().any(|a| a == "--bench") {
-        eprintln!(
-            "a measurement: run it with `cargo bench -p keycomp-describe --bench descriptor_stability`"
-        );
-        return None;
-    }
-    Some(args.into_iter().filter(|a| a != "--bench").collect())
-}
+use keycomp_test_support::{SHARED_DATA, bench_args, median, workspace_path};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let Some(args) = bench_args() else {
+    let Some(args) = bench_args("cargo bench -p keycomp-describe --bench descriptor_stability")
+    else {
         return Ok(());
     };
     // relative to the workspace root (`cargo bench` runs a bench in its crate's folder)

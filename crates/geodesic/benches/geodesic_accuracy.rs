@@ -6,6 +6,7 @@
 
 use keycomp_geodesic::{GeodesicParams, GeodesicSolver};
 use keycomp_mesh::{Mesh, Topology, synth};
+use keycomp_test_support::bench_args;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -70,22 +71,8 @@ fn error(mesh: &Mesh, angle: f64, steps: usize) -> (f64, usize, usize) {
     (total, o.obtuse_corners, o.split)
 }
 
-/// The bench's command line, its name first, without the `--bench` flag `cargo bench` appends;
-/// `None` when `cargo bench` did not run it (`cargo test --benches` and `--all-targets` run
-/// bench targets too, and a measurement is no test).
-fn bench_args() -> Option<Vec<String>> {
-    let args: Vec<String> = std::env::args().collect();
-    if !args.iter().any(|a| a == "--bench") {
-        eprintln!(
-            "a measurement: run it with `cargo bench -p keycomp-geodesic --bench geodesic_accuracy`"
-        );
-        return None;
-    }
-    Some(args.into_iter().filter(|a| a != "--bench").collect())
-}
-
 fn main() {
-    let Some(args) = bench_args() else {
+    let Some(args) = bench_args("cargo bench -p keycomp-geodesic --bench geodesic_accuracy") else {
         return;
     };
     let angles: Vec<f64> = args

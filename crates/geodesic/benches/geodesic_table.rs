@@ -8,7 +8,7 @@ use std::time::Instant;
 
 use keycomp_geodesic::{GeodesicSolver, distance_matrix};
 use keycomp_mesh::{Mesh, Topology, synth};
-use keycomp_test_support::{median, shared_data};
+use keycomp_test_support::{bench_args, median, shared_data};
 
 fn row(name: &str, mesh: &Mesh) -> Result<String, Box<dyn std::error::Error>> {
     let topo = Topology::new(mesh);
@@ -50,22 +50,8 @@ fn row(name: &str, mesh: &Mesh) -> Result<String, Box<dyn std::error::Error>> {
     ))
 }
 
-/// The bench's command line, its name first, without the `--bench` flag `cargo bench` appends;
-/// `None` when `cargo bench` did not run it (`cargo test --benches` and `--all-targets` run
-/// bench targets too, and a measurement is no test).
-fn bench_args() -> Option<Vec<String>> {
-    let args: Vec<String> = std::env::args().collect();
-    if !args.iter().any(|a| a == "--bench") {
-        eprintln!(
-            "a measurement: run it with `cargo bench -p keycomp-geodesic --bench geodesic_table`"
-        );
-        return None;
-    }
-    Some(args.into_iter().filter(|a| a != "--bench").collect())
-}
-
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    if bench_args().is_none() {
+    if bench_args("cargo bench -p keycomp-geodesic --bench geodesic_table").is_none() {
         return Ok(());
     }
     println!(

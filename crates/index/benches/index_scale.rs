@@ -20,9 +20,8 @@
 
 use std::time::{Duration, Instant};
 
-mod common;
-use common::{bench_args, workspace_path};
 use keycomp_index::{IndexReader, IndexWriter, synthetic};
+use keycomp_test_support::{bench_args, median, workspace_path};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -31,11 +30,6 @@ const SEED: u64 = 42;
 
 fn ms(d: Duration) -> f64 {
     d.as_secs_f64() * 1e3
-}
-
-fn median(mut v: Vec<Duration>) -> Duration {
-    v.sort();
-    v[v.len() / 2]
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -89,10 +83,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         for _ in 0..reps {
             let t = Instant::now();
             let r = IndexReader::<D>::open(&dir)?;
-            opens.push(t.elapsed());
+            opens.push(ms(t.elapsed()));
             let t = Instant::now();
             r.prepare_search();
-            trees.push(t.elapsed());
+            trees.push(ms(t.elapsed()));
             reader = Some(r);
         }
         let Some(r) = reader else { continue };
@@ -123,8 +117,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             stats.components,
             stats.bytes as f64 / 1e6,
             write.as_secs_f64(),
-            ms(median(opens)),
-            ms(median(trees)),
+            median(opens),
+            median(trees),
             ms(per_query),
             ms(per_shape_query),
         );

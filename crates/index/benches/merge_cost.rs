@@ -12,9 +12,8 @@
 
 use std::time::Instant;
 
-mod common;
-use common::bench_args;
 use keycomp_index::{IndexReader, IndexWriter, ShapeRecord, synthetic};
+use keycomp_test_support::{bench_args, median};
 
 const D: usize = 64;
 
@@ -87,11 +86,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         assert_eq!(s.added, shards * per);
         out_bytes = size_of_dir(&dst);
     }
-    let median = |v: &mut Vec<f64>| {
-        v.sort_by(f64::total_cmp);
-        v[v.len() / 2]
-    };
-    let (o, m) = (median(&mut open_ms), median(&mut merge_ms));
+    let (o, m) = (median(open_ms), median(merge_ms));
     let shapes = shards * per;
     println!(
         "| shards | shapes | parts per shape | shard bytes | open sources ms | merge ms | shapes/s (merge) | bytes written |"

@@ -1,22 +1,24 @@
 //! Wall time of detection and of description per mesh, median of `--runs` (default 3).
 //!
 //! `cargo bench -p keycomp --bench analysis_time -- [--runs N] [--layout-reach R|none] MESH...`
-//! (MESH paths relative to the workspace root)
+//! (MESH paths relative to the workspace root; when `cargo bench` did not run it, it prints its
+//! usage and measures nothing)
 //!
 //! Prints one line per mesh: vertices, parts, detection ms, description ms, and their ratio.
 
 use keycomp::analysis::Profile;
 use keycomp_components::{DetectParams, detect};
 use keycomp_describe::describe_with;
-use keycomp_test_support::{median, workspace_path};
+use keycomp_test_support::{bench_args, median, workspace_path};
 use std::time::Instant;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    // `cargo bench` passes `--bench` to a harness-free bench
-    let mut args: Vec<String> = std::env::args()
-        .skip(1)
-        .filter(|a| a != "--bench")
-        .collect();
+    let Some(mut args) = bench_args(
+        "cargo bench -p keycomp --bench analysis_time -- [--runs N] [--layout-reach R|none] MESH...",
+    ) else {
+        return Ok(());
+    };
+    args.remove(0); // the program
     let mut runs = 3;
     if let Some(i) = args.iter().position(|a| a == "--runs") {
         runs = args.get(i + 1).ok_or("--runs needs a number")?.parse()?;

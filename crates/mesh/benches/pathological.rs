@@ -4,17 +4,21 @@
 //! OFF face, which the reader fan-triangulates: its first corner gets valence N − 1).
 //!
 //! `cargo bench -p keycomp-mesh --bench pathological -- DIR` (DIR relative to the workspace
-//! root; the `--bench` flag that `cargo bench` passes is ignored; without DIR it prints its
-//! usage and writes nothing)
+//! root; without DIR, or when `cargo bench` did not run it, it prints its usage and writes
+//! nothing)
 
 use std::fmt::Write as _;
 
-use keycomp_test_support::workspace_path;
+use keycomp_test_support::{bench_args, workspace_path};
+
+const USAGE: &str = "cargo bench -p keycomp-mesh --bench pathological -- DIR";
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    // `cargo bench` adds `--bench`
-    let Some(dir) = std::env::args().skip(1).find(|a| a != "--bench") else {
-        eprintln!("usage: cargo bench -p keycomp-mesh --bench pathological -- DIR");
+    let Some(args) = bench_args(USAGE) else {
+        return Ok(());
+    };
+    let Some(dir) = args.get(1) else {
+        eprintln!("usage: {USAGE}");
         return Ok(());
     };
     // `cargo bench` runs in crates/mesh

@@ -18,12 +18,12 @@
 use std::time::Instant;
 
 mod common;
-use common::{bench_args, env_path, grown_copy, resident_mb};
+use common::{env_path, grown_copy, resident_mb};
 use hnsw_rs::prelude::{DistL2, Hnsw};
 use keycomp_describe::DIM;
 use keycomp_index::{IndexReader, IndexWriter, SearchMode, ShapeId, ShapeRecord};
 use keycomp_retrieval::CANDIDATES_PER_COMPONENT;
-use keycomp_test_support::{median, workspace_path};
+use keycomp_test_support::{bench_args, median, workspace_path};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -37,7 +37,9 @@ fn recall(got: &[(ShapeId, usize)], want: &[(ShapeId, usize)]) -> f64 {
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let Some(args) = bench_args() else {
+    let Some(args) = bench_args(
+        "cargo bench -p keycomp-retrieval --bench ann_compare -- SHAPES INDEX [QUERIES]",
+    ) else {
         return Ok(());
     };
     let usage = "usage: ann_compare SHAPES INDEX [QUERIES]";

@@ -34,18 +34,20 @@
 use std::time::Instant;
 
 mod common;
-use common::{bench_args, env_path, grown_copy, perturbed_query, resident_mb, view};
+use common::{env_path, grown_copy, perturbed_query, resident_mb, view};
 use keycomp_describe::DIM;
 use keycomp_index::{IndexReader, IndexWriter, SearchMode, synthetic};
 use keycomp_retrieval::{
     CANDIDATES_PER_COMPONENT, MatchParams, ShapeView, rank, rank_hypotheses, rank_neighbours,
 };
-use keycomp_test_support::{median, workspace_path};
+use keycomp_test_support::{bench_args, median, workspace_path};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let Some(args) = bench_args() else {
+    let Some(args) = bench_args(
+        "cargo bench -p keycomp-retrieval --bench query_scale -- [SIZES] [INDEX] [QUERIES]",
+    ) else {
         return Ok(());
     };
     let sizes: Vec<u64> = args

@@ -34,18 +34,20 @@
 use std::time::Instant;
 
 mod common;
-use common::{bench_args, disk_read_bytes, env_path, grown_copy, perturbed_query, view};
+use common::{disk_read_bytes, env_path, grown_copy, perturbed_query, view};
 use keycomp_describe::DIM;
 use keycomp_index::{
     ComponentMatch, IndexReader, IndexWriter, SearchEffort, SearchMode, ShapeId, ShapeRecord,
 };
 use keycomp_retrieval::{CANDIDATES_PER_COMPONENT, MatchParams, rank_neighbours};
-use keycomp_test_support::{median, workspace_path};
+use keycomp_test_support::{bench_args, median, workspace_path};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let Some(args) = bench_args() else {
+    let Some(args) = bench_args(
+        "cargo bench -p keycomp-retrieval --bench search_effort -- SHAPES INDEX [QUERIES] [SOURCES] [EFFORTS]",
+    ) else {
         return Ok(());
     };
     let usage = "usage: search_effort SHAPES INDEX [QUERIES] [SOURCES] [EFFORTS]";

@@ -10,24 +10,10 @@
 
 use keycomp_mesh::{Mesh, read_mesh, synth};
 use keycomp_spectral::{Spectrum, SpectrumParams};
-use keycomp_test_support::shared_data;
-
-/// The bench's command line, its name first, without the `--bench` flag `cargo bench` appends;
-/// `None` when `cargo bench` did not run it (`cargo test --benches` and `--all-targets` run
-/// bench targets too, and a measurement is no test).
-fn bench_args() -> Option<Vec<String>> {
-    let args: Vec<String> = std::env::args().collect();
-    if !args.iter().any(|a| a == "--bench") {
-        eprintln!(
-            "a measurement: run it with `cargo bench -p keycomp-spectral --bench spectrum_timing`"
-        );
-        return None;
-    }
-    Some(args.into_iter().filter(|a| a != "--bench").collect())
-}
+use keycomp_test_support::{bench_args, shared_data};
 
 fn main() {
-    let Some(args) = bench_args() else {
+    let Some(args) = bench_args("cargo bench -p keycomp-spectral --bench spectrum_timing") else {
         return;
     };
     let counts: Vec<usize> = args.iter().skip(1).filter_map(|a| a.parse().ok()).collect();

@@ -1,7 +1,7 @@
 #![allow(dead_code)] // each bench uses a part of this module
-//! What this crate's scale benches (`query_scale`, `ann_compare`, `search_effort`) share: their
-//! command line under `cargo bench`, the grown copies of real records, the queries made of
-//! indexed records, resident memory. Paths from the workspace root and medians come from
+//! What this crate's scale benches (`query_scale`, `ann_compare`, `search_effort`) share: the
+//! grown copies of real records, the queries made of indexed records, resident memory. Their
+//! command line under `cargo bench`, paths from the workspace root and medians come from
 //! `keycomp_test_support`.
 
 use std::path::PathBuf;
@@ -11,20 +11,6 @@ use keycomp_index::{IndexReader, ShapeId, ShapeRecord};
 use keycomp_retrieval::ShapeView;
 use keycomp_test_support::workspace_path;
 use rand::Rng;
-
-/// The bench's command line, its name first, without the `--bench` flag `cargo bench` appends;
-/// `None` when `cargo bench` did not run it (`cargo test --benches` and `--all-targets` run
-/// bench targets too, and a measurement is no test).
-pub fn bench_args() -> Option<Vec<String>> {
-    let args: Vec<String> = std::env::args().collect();
-    if !args.iter().any(|a| a == "--bench") {
-        eprintln!(
-            "a measurement: run it with `cargo bench -p keycomp-retrieval --bench NAME -- ARGS`"
-        );
-        return None;
-    }
-    Some(args.into_iter().filter(|a| a != "--bench").collect())
-}
 
 /// The path in the environment variable `var`, a relative one taken from the workspace root
 /// (`cargo bench` runs a bench in its crate's folder).
