@@ -6,19 +6,20 @@
 //!     [MESH|synth] [edge|vertex] [time] [delta] [min_diversity] [max_variation]
 //! ```
 //!
-//! MESH is relative to the workspace root. The `--bench` flag that `cargo bench` passes is
-//! ignored.
+//! MESH is relative to the workspace root. Run without cargo's `--bench` flag, as
+//! `cargo test --all-targets` does, it measures nothing.
 
 use keycomp_mesh::{read_mesh, synth};
 use keycomp_mser::{MserParams, StableParams, detect};
 use keycomp_test_support::workspace_path;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    // `cargo bench` adds `--bench`
-    let args: Vec<String> = std::env::args()
-        .skip(1)
-        .filter(|a| a != "--bench")
-        .collect();
+    let Some(args) = keycomp_test_support::bench_args(
+        "cargo bench -p keycomp-mser --bench mser_explore -- [MESH|synth] [edge|vertex] [time] [delta] [min_diversity] [max_variation]",
+    ) else {
+        return Ok(());
+    };
+    let args = &args[1..];
     let mesh = match args.first().map(String::as_str) {
         None | Some("synth") => synth::protrusion_sphere(5, 0.8, 0.25),
         // `cargo bench` runs in crates/mser

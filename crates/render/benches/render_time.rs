@@ -8,8 +8,8 @@
 //! `../shared/data/models/nefertiti.obj` (skipped with a message when absent; found relative to
 //! the workspace root, or in the folder `KEYCOMP_DATA` names, itself relative to the root) and
 //! `synth::textured_protrusion_sphere(6)`. Each is coloured by height and rendered at 512 px
-//! with 2×2 supersampling; the table shows the median of several runs. The `--bench` flag that
-//! `cargo bench` passes is ignored.
+//! with 2×2 supersampling; the table shows the median of several runs. Run without cargo's
+//! `--bench` flag, as `cargo test --all-targets` does, it measures nothing.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -84,11 +84,12 @@ fn time(name: &str, mesh: &Mesh, colors: &[[u8; 3]], params: &RenderParams, out:
 }
 
 fn main() {
-    // `cargo bench` adds `--bench`
-    let out = std::env::args()
-        .skip(1)
-        .find(|a| a != "--bench")
-        .map(workspace_path);
+    let Some(args) = keycomp_test_support::bench_args(
+        "cargo bench -p keycomp-render --bench render_time [-- OUT_DIR]",
+    ) else {
+        return;
+    };
+    let out = args.get(1).map(workspace_path);
     println!(
         "rayon threads: {}; 2x2 supersampling, smooth shading, outline on",
         rayon::current_num_threads()

@@ -1,17 +1,18 @@
 //! Generates instances of every class at a vertex target and reports failures, timings and
 //! the worst triangle (smallest angle, smallest relative area) of each:
-//! `cargo bench -p keycomp-shapes --bench scan -- [TARGET] [INSTANCES] [RELAX_ROUNDS]` (the
-//! `--bench` flag that `cargo bench` passes is ignored).
+//! `cargo bench -p keycomp-shapes --bench scan -- [TARGET] [INSTANCES] [RELAX_ROUNDS]` (run
+//! without cargo's `--bench` flag, as `cargo test --all-targets` does, it measures nothing).
 use std::time::Instant;
 
 use keycomp_shapes::{Class, GenerateParams, check, generate};
 
 fn main() {
-    // `cargo bench` adds `--bench`
-    let args: Vec<String> = std::env::args()
-        .skip(1)
-        .filter(|a| a != "--bench")
-        .collect();
+    let Some(args) = keycomp_test_support::bench_args(
+        "cargo bench -p keycomp-shapes --bench scan -- [TARGET] [INSTANCES] [RELAX_ROUNDS]",
+    ) else {
+        return;
+    };
+    let args = &args[1..];
     let target = args.first().and_then(|s| s.parse().ok()).unwrap_or(20_000);
     let n = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(6);
     let rounds = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(4);
