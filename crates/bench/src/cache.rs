@@ -93,11 +93,16 @@ impl CacheFolder {
         self.dir.join(format!("{key:032x}.{extension}"))
     }
 
-    /// The bytes of the entry: [`Lookup::Miss`] without one, [`Lookup::Corrupt`] when it
-    /// cannot be read.
-    pub fn read(&self, key: u128, extension: &str) -> Lookup<Vec<u8>> {
+    /// The entry as `decode` reads its bytes: [`Lookup::Miss`] without one,
+    /// [`Lookup::Corrupt`] when it cannot be read or `decode` refuses it (`None`).
+    pub fn read<T>(
+        &self,
+        key: u128,
+        extension: &str,
+        decode: impl FnOnce(&[u8]) -> Option<T>,
+    ) -> Lookup<T> {
         match fs::read(self.path(key, extension)) {
-            Ok(bytes) => Lookup::Hit(bytes),
+            Ok(bytes) => decode(&bytes).map_or(Lookup::Corrupt, Lookup::Hit),
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => Lookup::Miss,
             Err(_) => Lookup::Corrupt,
         }
@@ -195,13 +200,8 @@ impl EmbeddingCache {
     /// Looks `key` up for a mesh of `num_vertices` vertices. Never fails: unreadable or invalid
     /// entries are [`Lookup::Corrupt`].
     pub fn load(&self, key: u128, num_vertices: usize) -> Lookup {
-        match self.folder.read(key, "emb") {
-            Lookup::Hit(bytes) => {
-                decode(&bytes, key, num_vertices).map_or(Lookup::Corrupt, Lookup::Hit)
-            }
-            Lookup::Miss => Lookup::Miss,
-            Lookup::Corrupt => Lookup::Corrupt,
-        }
+        self.folder
+            .read(key, "emb", |bytes| decode(bytes, key, num_vertices))
     }
 
     /// Stores `embedded` under `key`, atomically (see the [module docs](self)).
@@ -318,13 +318,8 @@ impl EmbeddingCache {
     /// unreadable or invalid entries (ids out of range, unsorted components) are
     /// [`Lookup::Corrupt`].
     pub fn load_mser(&self, key: u128, num_vertices: usize) -> Lookup<MserEntry> {
-        match self.folder.read(key, "msr") {
-            Lookup::Hit(bytes) => {
-                decode_mser(&bytes, key, num_vertices).map_or(Lookup::Corrupt, Lookup::Hit)
-            }
-            Lookup::Miss => Lookup::Miss,
-            Lookup::Corrupt => Lookup::Corrupt,
-        }
+        self.folder
+            .read(key, "msr", |bytes| decode_mser(bytes, key, num_vertices))
     }
 
     /// Stores an MSER detection under `key`, atomically.

@@ -57,12 +57,17 @@ impl RecordCache {
             .folder
             .as_ref()
             .and_then(|f| self.key(&hash, role).map(|k| (f, k)));
-        let cached = entry
-            .and_then(|(f, k)| match f.read(k, "json") {
-                Lookup::Hit(b) => serde_json::from_slice::<Vec<ShapeRecord<DIM>>>(&b).ok(),
+        let cached = entry.and_then(|(f, k)| {
+            let valid = |b: &[u8]| {
+                serde_json::from_slice::<Vec<ShapeRecord<DIM>>>(b)
+                    .ok()
+                    .filter(|rs| !rs.is_empty() && rs.iter().all(|r| r.content_hash == hash))
+            };
+            match f.read(k, "json", valid) {
+                Lookup::Hit(rs) => Some(rs),
                 Lookup::Miss | Lookup::Corrupt => None,
-            })
-            .filter(|rs| !rs.is_empty() && rs.iter().all(|r| r.content_hash == hash));
+            }
+        });
         if let Some(mut rs) = cached {
             for r in &mut rs {
                 r.path = path.to_path_buf();
