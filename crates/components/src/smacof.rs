@@ -16,15 +16,21 @@
 //!    `X ← (1/K)·B(X)·X` with `B_ij = −δ_ij / d_ij(X)` for `i ≠ j` (0 when `d_ij(X) = 0`) and
 //!    `B_ii = −Σ_{j≠i} B_ij`, i.e. row `i` of `B·X` is `(Σ_{j≠i} b_ij)·x_i − Σ_{j≠i} b_ij·x_j`
 //!    with `b_ij = δ_ij / d_ij`. `B` is never materialised: one sweep over the pairs `i < j`
-//!    computes `d_ij` once, accumulates both rows, and also yields `σ(X)`.
+//!    computes `d_ij` once, accumulates both rows, and also yields `σ(X)`. The sweep is cut
+//!    into blocks of consecutive rows of about 32k pairs each, swept in parallel with their own
+//!    sums, which are then added in block order: the blocks depend on K only, so the result
+//!    is the same on any number of threads.
 //! 3. Stop when the relative decrease `(σ_old − σ_new) / σ_old` falls below `rel_tol`, when the
 //!    stress is exactly 0, or after `max_iter` transforms. The majorisation guarantees that
 //!    `σ` never increases from one iterate to the next (de Leeuw 1977).
 //! 4. Keep the start with the lowest final stress (ties: the lowest start index).
 //!
 //! Complexity: O(K²) time per iteration (one pass over the upper triangle, branch-free and
-//! laid out for SIMD), O(K) extra memory per start, no allocation inside the iteration loop;
-//! at most `starts · (max_iter + 1)` passes in total.
+//! laid out for SIMD, parallel over the blocks), O(K²/2) extra memory per start for a packed
+//! copy of the upper triangle (read in order, half the cache footprint of the square matrix)
+//! and O(K) per block, no allocation inside the iteration loop; at most
+//! `starts · (max_iter + 1)` passes in total. The classical start's products run in parallel
+//! over rows.
 //!
 //! The matrix is read from its upper triangle (`i < j`); the lower triangle is only checked to
 //! be the mirror image (relative tolerance 1e-9) and the diagonal is ignored.
@@ -222,17 +228,71 @@ fn check_matrix(d: &[f64], k: usize) -> Result<(), ComponentsError> {
 /// reassociating floating-point sums, which it may not do on its own).
 const LANES: usize = 4;
 
+/// About this many pairs `i < j` per block of rows of the Guttman transform (see [`Block`]).
+const PAIRS_PER_BLOCK: usize = 1 << 15;
+
+/// Most blocks of rows per transform.
+const MAX_BLOCKS: usize = 32;
+
+/// A block of consecutive rows `i` of the upper triangle, with its own accumulators: one
+/// transform sweeps the blocks in parallel, then adds their accumulators in block order. The
+/// blocks depend on K only, so the sums, and the result, are the same on any number of threads.
+struct Block {
+    /// First row of the block.
+    first: usize,
+    /// One past its last row.
+    end: usize,
+    /// `Σ_j b_ij x_j` over the block's pairs, for rows `first..K` (index `i − first`).
+    tx: Vec<f64>,
+    /// `Σ_j b_ij y_j`, likewise.
+    ty: Vec<f64>,
+    /// `Σ_j b_ij`, likewise.
+    ts: Vec<f64>,
+    /// Scratch row: `b_ij` for the current `i`.
+    b: Vec<f64>,
+    /// Scratch row: `(d_ij − δ_ij)²` for the current `i`.
+    r2: Vec<f64>,
+    /// The block's share of the stress.
+    stress: f64,
+}
+
+/// Splits rows `0..k` into blocks of about [`PAIRS_PER_BLOCK`] pairs each (row `i` has
+/// `k − 1 − i`), at most [`MAX_BLOCKS`].
+fn blocks(k: usize) -> Vec<Block> {
+    let pairs = k * k.saturating_sub(1) / 2;
+    let count = pairs.div_ceil(PAIRS_PER_BLOCK).clamp(1, MAX_BLOCKS);
+    let per = pairs.div_ceil(count).max(1);
+    let mut out = Vec::with_capacity(count);
+    let (mut first, mut taken) = (0, 0);
+    for i in 0..k {
+        taken += k - 1 - i;
+        if taken >= per || i + 1 == k {
+            let m = k - first;
+            out.push(Block {
+                first,
+                end: i + 1,
+                tx: vec![0.0; m],
+                ty: vec![0.0; m],
+                ts: vec![0.0; m],
+                b: vec![0.0; m],
+                r2: vec![0.0; m],
+                stress: 0.0,
+            });
+            (first, taken) = (i + 1, 0);
+        }
+    }
+    out
+}
+
 /// Buffers of one start, allocated once.
 struct Work {
     x: Vec<f64>,
     y: Vec<f64>,
     nx: Vec<f64>,
     ny: Vec<f64>,
+    /// `Σ_j b_ij` per row.
     s: Vec<f64>,
-    /// Scratch row: `b_ij` for the current `i`.
-    b: Vec<f64>,
-    /// Scratch row: `(d_ij − δ_ij)²` for the current `i`.
-    r2: Vec<f64>,
+    blocks: Vec<Block>,
 }
 
 /// Runs one start (index `start`) to convergence; `on_stress` sees the stress of every iterate
@@ -246,23 +306,23 @@ fn run_start(
 ) -> Embedding {
     let mut rng = ChaCha8Rng::seed_from_u64(params.seed);
     rng.set_stream(start);
-    let scale = upper_max(delta, k);
+    let (packed, unit) = packed_upper(delta, k);
+    let scale = upper_max(delta, k) / unit;
     let mut w = Work {
         x: Vec::with_capacity(k),
         y: Vec::with_capacity(k),
         nx: vec![0.0; k],
         ny: vec![0.0; k],
         s: vec![0.0; k],
-        b: vec![0.0; k],
-        r2: vec![0.0; k],
+        blocks: blocks(k),
     };
     match (start == 0 && params.classical_start)
         .then(|| classical(delta, k))
         .flatten()
     {
         Some((x, y)) => {
-            w.x = x;
-            w.y = y;
+            w.x = x.iter().map(|v| v / unit).collect();
+            w.y = y.iter().map(|v| v / unit).collect();
         }
         None => {
             for _ in 0..k {
@@ -273,15 +333,8 @@ fn run_start(
     }
     let mut prev: Option<f64> = None;
     let mut iterations = 0;
-    let arch = pulp::Arch::new();
     let stress = loop {
-        // compiled for the widest vector unit the CPU has: the same operations in the same
-        // order, so the same result bit for bit, only more lanes at once
-        let stress = arch.dispatch(Guttman {
-            delta,
-            k,
-            w: &mut w,
-        });
+        let stress = guttman(&packed, k, &mut w) * unit * unit;
         on_stress(stress);
         if stress == 0.0 || iterations == params.max_iter {
             break stress;
@@ -297,29 +350,104 @@ fn run_start(
         prev = Some(stress);
     };
     Embedding {
-        points: w.x.iter().zip(&w.y).map(|(&x, &y)| [x, y]).collect(),
+        points: w
+            .x
+            .iter()
+            .zip(&w.y)
+            .map(|(&x, &y)| [x * unit, y * unit])
+            .collect(),
         stress,
         iterations,
     }
 }
 
-/// [`guttman`] as a `pulp` operation: `with_simd` is instantiated inside a function compiled for
-/// each instruction set (AVX-512, AVX2, baseline), and inlining `guttman` into it (both are
-/// `inline(always)`) compiles the transform's loops for that set. (A closure would not do: one
-/// that is not inlined keeps the baseline set.)
-struct Guttman<'a> {
-    delta: &'a [f64],
-    k: usize,
-    w: &'a mut Work,
+/// One Guttman transform: writes `(1/K)·B(X)·X` into `w.nx, w.ny` and returns `σ(X)`. The
+/// blocks of rows run in parallel ([`sweep`]), then their sums are added in block order.
+fn guttman(delta: &[f64], k: usize, w: &mut Work) -> f64 {
+    let Work {
+        x,
+        y,
+        nx,
+        ny,
+        s,
+        blocks,
+    } = w;
+    let (x, y) = (&x[..], &y[..]);
+    blocks.par_iter_mut().for_each(|block| {
+        // compiled for the widest vector unit the CPU has: the same operations in the same
+        // order, so the same result bit for bit, only more lanes at once
+        pulp::Arch::new().dispatch(Sweep {
+            delta,
+            k,
+            x,
+            y,
+            block,
+        })
+    });
+    let mut stress = 0.0;
+    nx.fill(0.0);
+    ny.fill(0.0);
+    s.fill(0.0);
+    for block in blocks.iter() {
+        let f = block.first;
+        for (((i, &bx), &by), &bs) in (f..k).zip(&block.tx).zip(&block.ty).zip(&block.ts) {
+            nx[i] += bx;
+            ny[i] += by;
+            s[i] += bs;
+        }
+        stress += block.stress;
+    }
+    let inv_n = 1.0 / k as f64;
+    for i in 0..k {
+        nx[i] = (s[i] * x[i] - nx[i]) * inv_n;
+        ny[i] = (s[i] * y[i] - ny[i]) * inv_n;
+    }
+    stress
 }
 
-impl pulp::WithSimd for Guttman<'_> {
-    type Output = f64;
+/// [`sweep`] as a `pulp` operation: `with_simd` is instantiated inside a function compiled for
+/// each instruction set (AVX-512, AVX2, baseline), and inlining `sweep` into it (both are
+/// `inline(always)`) compiles the transform's loops for that set. (A closure would not do: one
+/// that is not inlined keeps the baseline set.)
+struct Sweep<'a> {
+    delta: &'a [f64],
+    k: usize,
+    x: &'a [f64],
+    y: &'a [f64],
+    block: &'a mut Block,
+}
+
+impl pulp::WithSimd for Sweep<'_> {
+    type Output = ();
 
     #[inline(always)]
-    fn with_simd<S: pulp::Simd>(self, _simd: S) -> f64 {
-        guttman(self.delta, self.k, self.w)
+    fn with_simd<S: pulp::Simd>(self, _simd: S) {
+        sweep(self.delta, self.k, self.x, self.y, self.block)
     }
+}
+
+/// The upper triangle of `delta` (`δ_ij`, `i < j`), row after row (row `i` at
+/// [`row_start`]`(i, k)`), divided by `unit`, the power of two that brings the largest distance
+/// into `[½, 1)` (1 when every distance is 0). The transform runs on these values: half the
+/// memory of the square matrix, read in order, and coordinates of order 1 (see
+/// [`inverse_sqrt`]); dividing by a power of two is exact, so scaling back is too.
+fn packed_upper(delta: &[f64], k: usize) -> (Vec<f64>, f64) {
+    let max = upper_max(delta, k);
+    let unit = if max > 0.0 {
+        2f64.powi((max.log2().floor() as i32 + 1).clamp(-1000, 1000))
+    } else {
+        1.0
+    };
+    let mut packed = Vec::with_capacity(k * k.saturating_sub(1) / 2);
+    for i in 0..k {
+        packed.extend(delta[i * k + i + 1..(i + 1) * k].iter().map(|d| d / unit));
+    }
+    (packed, unit)
+}
+
+/// Where row `i` (its pairs `j > i`) starts in [`packed_upper`]'s triangle of a `k × k` matrix.
+fn row_start(i: usize, k: usize) -> usize {
+    i * (k - 1) - i * i.saturating_sub(1) / 2
 }
 
 fn upper_max(delta: &[f64], k: usize) -> f64 {
@@ -340,7 +468,9 @@ fn nonzero_or_zero(q: f64, d: f64) -> f64 {
     f64::from_bits(q.to_bits() & mask)
 }
 
-/// One Guttman transform: writes `(1/K)·B(X)·X` into `w.nx, w.ny` and returns `σ(X)`.
+/// One block's share of a Guttman transform: for its rows `i` and every `j > i`, adds `b_ij`,
+/// `b_ij·x_j`, `b_ij·y_j` to row `i`'s sums and `b_ij`, `b_ij·x_i`, `b_ij·y_i` to row `j`'s (with
+/// `b_ij = δ_ij / d_ij(X)`), and sums `(d_ij − δ_ij)²` into its stress.
 ///
 /// Per row `i`, a first element-wise loop over `j > i` (which the compiler vectorises: no
 /// cross-iteration sums) computes `b_ij` and `(d_ij − δ_ij)²` into scratch rows and adds row
@@ -348,29 +478,31 @@ fn nonzero_or_zero(q: f64, d: f64) -> f64 {
 /// independent accumulators. Inlined into its caller's `pulp` dispatch, which compiles it for
 /// AVX2 and AVX-512 as well and picks the widest the CPU has at run time.
 #[inline(always)]
-fn guttman(delta: &[f64], k: usize, w: &mut Work) -> f64 {
-    let Work {
-        x,
-        y,
-        nx,
-        ny,
-        s,
+fn sweep(delta: &[f64], k: usize, x: &[f64], y: &[f64], block: &mut Block) {
+    let Block {
+        first,
+        end,
+        tx,
+        ty,
+        ts,
         b,
         r2,
-    } = w;
-    // nx, ny accumulate Σ_j b_ij x_j, s accumulates Σ_j b_ij
-    nx.fill(0.0);
-    ny.fill(0.0);
-    s.fill(0.0);
+        stress: block_stress,
+    } = block;
+    let first = *first;
+    tx.fill(0.0);
+    ty.fill(0.0);
+    ts.fill(0.0);
     let mut stress = 0.0;
-    for i in 0..k {
+    for i in first..*end {
         let (xi, yi) = (x[i], y[i]);
         let m = k - i - 1;
-        let row = &delta[i * k + i + 1..(i + 1) * k];
+        let row = &delta[row_start(i, k)..][..m];
         let (xs, ys) = (&x[i + 1..], &y[i + 1..]);
-        let (nx_head, tx) = nx.split_at_mut(i + 1);
-        let (ny_head, ty) = ny.split_at_mut(i + 1);
-        let (s_head, ts) = s.split_at_mut(i + 1);
+        let local = i - first;
+        let (tx_head, txs) = tx.split_at_mut(local + 1);
+        let (ty_head, tys) = ty.split_at_mut(local + 1);
+        let (ts_head, tss) = ts.split_at_mut(local + 1);
         let (b, r2) = (&mut b[..m], &mut r2[..m]);
         for (((((((&xj, &yj), &dj), bj), rj), txj), tyj), tsj) in xs
             .iter()
@@ -378,9 +510,9 @@ fn guttman(delta: &[f64], k: usize, w: &mut Work) -> f64 {
             .zip(row)
             .zip(b.iter_mut())
             .zip(r2.iter_mut())
-            .zip(tx.iter_mut())
-            .zip(ty.iter_mut())
-            .zip(ts.iter_mut())
+            .zip(txs.iter_mut())
+            .zip(tys.iter_mut())
+            .zip(tss.iter_mut())
         {
             let (dx, dy) = (xi - xj, yi - yj);
             let d = (dx * dx + dy * dy).sqrt();
@@ -423,21 +555,16 @@ fn guttman(delta: &[f64], k: usize, w: &mut Work) -> f64 {
             ss += as_[l];
             sst += st[l];
         }
-        nx_head[i] += sx;
-        ny_head[i] += sy;
-        s_head[i] += ss;
+        tx_head[local] += sx;
+        ty_head[local] += sy;
+        ts_head[local] += ss;
         stress += sst;
     }
-    let inv_n = 1.0 / k as f64;
-    for i in 0..k {
-        nx[i] = (s[i] * x[i] - nx[i]) * inv_n;
-        ny[i] = (s[i] * y[i] - ny[i]) * inv_n;
-    }
-    stress
+    *block_stress = stress;
 }
 
-/// `bu = B·u` and `bv = B·v` for the K×K matrix `b`, in one pass over its rows, as a `pulp`
-/// operation (see [`Guttman`]).
+/// `bu = B·u` and `bv = B·v` for some rows `b` of a matrix with `k` columns, in one pass over
+/// them, as a `pulp` operation (see [`Sweep`]).
 struct Products<'a> {
     b: &'a [f64],
     k: usize,
@@ -483,6 +610,9 @@ impl pulp::WithSimd for Products<'_> {
     }
 }
 
+/// Rows per parallel piece of [`classical`]'s products.
+const PRODUCT_ROWS: usize = 64;
+
 /// Most subspace-iteration steps of [`classical`] (each two K×K products).
 const CLASSICAL_STEPS: usize = 100;
 
@@ -498,29 +628,26 @@ const CLASSICAL_STEPS: usize = 100;
 fn classical(delta: &[f64], k: usize) -> Option<(Vec<f64>, Vec<f64>)> {
     // B_ij = −½ (δ²_ij − r_i − r_j + g), r the row means of Δ², g their mean; formed in
     // place over Δ²
-    let mut b: Vec<f64> = delta.iter().map(|d| d * d).collect();
+    let mut b: Vec<f64> = delta.par_iter().map(|d| d * d).collect();
     let r: Vec<f64> = b
-        .chunks_exact(k)
+        .par_chunks_exact(k)
         .map(|row| row.iter().sum::<f64>() / k as f64)
         .collect();
     let g = r.iter().sum::<f64>() / k as f64;
-    for (row, &ri) in b.chunks_exact_mut(k).zip(&r) {
+    b.par_chunks_exact_mut(k).zip(&r).for_each(|(row, &ri)| {
         for (x, &rj) in row.iter_mut().zip(&r) {
             *x = -0.5 * (*x - ri - rj + g);
         }
-    }
+    });
     // Bu and Bv in one pass over B (each row read once), over `LANES` independent sums so the
     // loop vectorises, compiled for the widest vector unit the CPU has
-    let arch = pulp::Arch::new();
+    // Rows in parallel, in pieces of `PRODUCT_ROWS`: each row's sums are the same whichever
+    // thread computes them.
     let products = |u: &[f64], v: &[f64], bu: &mut [f64], bv: &mut [f64]| {
-        arch.dispatch(Products {
-            b: &b,
-            k,
-            u,
-            v,
-            bu,
-            bv,
-        })
+        b.par_chunks(k * PRODUCT_ROWS)
+            .zip(bu.par_chunks_mut(PRODUCT_ROWS))
+            .zip(bv.par_chunks_mut(PRODUCT_ROWS))
+            .for_each(|((b, bu), bv)| pulp::Arch::new().dispatch(Products { b, k, u, v, bu, bv }))
     };
     // a fixed, non-symmetric start: not orthogonal to the leading pair for any real shape
     let mut u: Vec<f64> = (0..k)
@@ -748,6 +875,108 @@ mod tests {
     }
 
     #[test]
+    fn blocks_cover_every_row_once_and_the_packed_rows_are_the_upper_triangle() {
+        for k in [0usize, 1, 2, 3, 257, 400, 1500] {
+            let bs = blocks(k);
+            assert!(bs.len() <= MAX_BLOCKS);
+            let mut next = 0;
+            for b in &bs {
+                assert_eq!(b.first, next);
+                assert!(b.end > b.first);
+                next = b.end;
+            }
+            assert_eq!(next, k, "k = {k}");
+            if k > 256 {
+                assert!(bs.len() > 1, "k = {k}: {} block", bs.len());
+            }
+        }
+        let k = 37;
+        let d = sphere_matrix(k, 4);
+        let (packed, unit) = packed_upper(&d, k);
+        let max = upper_max(&d, k);
+        assert!((0.5..1.0).contains(&(max / unit)), "{max} / {unit}");
+        assert_eq!(packed.len(), k * (k - 1) / 2);
+        for i in 0..k {
+            for j in i + 1..k {
+                assert_eq!(packed[row_start(i, k) + j - i - 1] * unit, d[i * k + j]);
+            }
+        }
+    }
+
+    /// One transform of the blocked sweep against the textbook formula on the full matrix,
+    /// `x_i ← (1/K)·Σ_{j≠i} b_ij·(x_i − x_j)`, over several blocks.
+    #[test]
+    fn one_transform_matches_the_formula() {
+        let k = 300;
+        let d = sphere_matrix(k, 8);
+        let params = SmacofParams {
+            starts: 1,
+            classical_start: false,
+            max_iter: 1,
+            rel_tol: 0.0,
+            seed: 3,
+        };
+        assert!(blocks(k).len() > 1);
+        // the random start run_start draws, then one transform by the formula
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        rng.set_stream(0);
+        let l = upper_max(&d, k);
+        let x0: Vec<[f64; 2]> = (0..k)
+            .map(|_| [rng.random::<f64>() * l, rng.random::<f64>() * l])
+            .collect();
+        let mut stress0 = 0.0;
+        let expected: Vec<[f64; 2]> = (0..k)
+            .map(|i| {
+                let mut acc = [0.0; 2];
+                for j in (0..k).filter(|&j| j != i) {
+                    let dist =
+                        ((x0[i][0] - x0[j][0]).powi(2) + (x0[i][1] - x0[j][1]).powi(2)).sqrt();
+                    if j > i {
+                        stress0 += (dist - d[i * k + j]).powi(2);
+                    }
+                    let b = d[i * k + j] / dist;
+                    acc[0] += b * (x0[i][0] - x0[j][0]) / k as f64;
+                    acc[1] += b * (x0[i][1] - x0[j][1]) / k as f64;
+                }
+                acc
+            })
+            .collect();
+        let mut hist = Vec::new();
+        let e = run_start(&d, k, &params, 0, |s| hist.push(s));
+        assert!(
+            (hist[0] - stress0).abs() <= 1e-9 * stress0,
+            "{} vs {stress0}",
+            hist[0]
+        );
+        for (got, want) in e.points.iter().zip(&expected) {
+            for c in 0..2 {
+                assert!((got[c] - want[c]).abs() <= 1e-9 * l, "{got:?} vs {want:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn the_blocked_sweep_gives_the_same_bits_on_any_number_of_threads() {
+        let k = 420;
+        let d = sphere_matrix(k, 6);
+        let params = SmacofParams {
+            starts: 2,
+            ..Default::default()
+        };
+        let on = |threads| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| smacof(&d, k, &params))
+                .unwrap()
+        };
+        let one = on(1);
+        assert_eq!(one, on(2));
+        assert_eq!(one, on(3));
+    }
+
+    #[test]
     fn keeps_the_lowest_stress_start() {
         let d = sphere_matrix(40, 5);
         let params = SmacofParams {
@@ -821,42 +1050,6 @@ mod tests {
             for w in hist.windows(2) {
                 prop_assert!(w[1] <= w[0] * (1.0 + 1e-12) + 1e-15, "{} -> {}", w[0], w[1]);
             }
-        }
-    }
-
-    /// Timing for the report: `cargo test --release -p keycomp-components smacof_timing
-    /// -- --ignored --nocapture`.
-    #[test]
-    #[ignore]
-    fn smacof_timing() {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(2)
-            .build()
-            .unwrap();
-        for k in [500usize, 1400] {
-            let d = sphere_matrix(k, 1);
-            let t = std::time::Instant::now();
-            let e = pool
-                .install(|| smacof(&d, k, &SmacofParams::default()))
-                .unwrap();
-            let el = t.elapsed();
-            println!(
-                "K = {k}: {:.3} s for 4 starts on 2 threads; winning start {} iterations, \
-                 normalised stress {:.4e}",
-                el.as_secs_f64(),
-                e.iterations,
-                e.stress / sum_sq_upper(&d, k)
-            );
-            let t = std::time::Instant::now();
-            let params = SmacofParams {
-                starts: 1,
-                rel_tol: 0.0,
-                max_iter: 100,
-                ..Default::default()
-            };
-            let _ = smacof(&d, k, &params).unwrap();
-            let per = t.elapsed().as_secs_f64() / 101.0;
-            println!("K = {k}: {:.3} ms per iteration", per * 1e3);
         }
     }
 }

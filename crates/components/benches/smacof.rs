@@ -1,0 +1,137 @@
+//! Time of SMACOF (pipeline step 4) on real keypoint matrices and on great-circle matrices.
+//!
+//! For each mesh file: unit-area normalisation, Harris keypoints and the keypoint distance
+//! matrix exactly as `detect` does under `--preset` (default robust), then SMACOF with that
+//! preset's parameters, `--runs` times (default 5). Without a mesh: great-circle distances
+//! between K random points of the unit sphere, K = 500, 1000 and 1400, one classical start.
+//! Printed per matrix: K, the winning start's transforms, the final stress, the median
+//! milliseconds of the whole call and per transform. Threads: the global rayon pool
+//! (`RAYON_NUM_THREADS=1` for one thread).
+//!
+//! ```text
+//! cargo bench -p keycomp-components --bench smacof -- [--runs 5] [--preset robust|kc1] [MESH...]
+//! ```
+//!
+//! MESH paths are relative to the workspace root. When `cargo bench` did not run it, it prints
+//! its usage and measures nothing.
+
+use std::time::Instant;
+
+use keycomp_components::{Preset, SmacofParams, keypoint_distances, smacof};
+use keycomp_mesh::{Topology, geometry, read_mesh};
+use keycomp_test_support::{bench_args, median, workspace_path};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+type Res<T> = Result<T, Box<dyn std::error::Error>>;
+
+/// Great-circle distances between `k` random points of the unit sphere (seed `seed`).
+fn sphere_matrix(k: usize, seed: u64) -> Vec<f64> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut pts = Vec::with_capacity(k);
+    while pts.len() < k {
+        let v: [f64; 3] = std::array::from_fn(|_| rng.random::<f64>() * 2.0 - 1.0);
+        let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        if n > 0.1 && n <= 1.0 {
+            pts.push(v.map(|c| c / n));
+        }
+    }
+    let mut d = vec![0.0; k * k];
+    for i in 0..k {
+        for j in 0..k {
+            if i != j {
+                let c: f64 = (0..3).map(|t| pts[i][t] * pts[j][t]).sum();
+                d[i * k + j] = c.clamp(-1.0, 1.0).acos();
+            }
+        }
+    }
+    d
+}
+
+/// Runs SMACOF `runs` times on the matrix and prints one table row.
+fn measure(name: &str, d: &[f64], k: usize, params: &SmacofParams, runs: usize) -> Res<()> {
+    let mut times = Vec::with_capacity(runs);
+    let mut last = None;
+    for _ in 0..runs {
+        let t = Instant::now();
+        let e = smacof(d, k, params)?;
+        times.push(t.elapsed().as_secs_f64() * 1e3);
+        last = Some(e);
+    }
+    let e = last.ok_or("--runs must be at least 1")?;
+    let ms = median(times);
+    println!(
+        "| {name} | {k} | {} | {:.6e} | {ms:.1} | {:.3} |",
+        e.iterations,
+        e.stress,
+        ms / (e.iterations + 1) as f64
+    );
+    Ok(())
+}
+
+fn main() -> Res<()> {
+    let Some(args) = bench_args(
+        "cargo bench -p keycomp-components --bench smacof -- [--runs 5] [--preset robust|kc1] \
+         [MESH...]",
+    ) else {
+        return Ok(());
+    };
+    let mut args = args.into_iter().skip(1);
+    let mut runs = 5;
+    let mut preset = Preset::Robust;
+    let mut files = Vec::new();
+    while let Some(a) = args.next() {
+        match a.as_str() {
+            "--runs" => runs = args.next().ok_or("--runs N")?.parse()?,
+            "--preset" => {
+                preset = match args.next().ok_or("--preset NAME")?.as_str() {
+                    "robust" => Preset::Robust,
+                    "kc1" => Preset::Kc1,
+                    other => return Err(format!("unknown preset {other}").into()),
+                }
+            }
+            _ => files.push(a),
+        }
+    }
+    println!(
+        "SMACOF, {} threads, median of {runs} runs\n",
+        rayon::current_num_threads()
+    );
+    println!("| matrix | K | transforms | stress | ms | ms per transform |");
+    println!("|---|---:|---:|---:|---:|---:|");
+    if files.is_empty() {
+        let params = SmacofParams {
+            starts: 1,
+            ..SmacofParams::default()
+        };
+        for k in [500, 1000, 1400] {
+            measure(
+                &format!("sphere {k}"),
+                &sphere_matrix(k, 1),
+                k,
+                &params,
+                runs,
+            )?;
+        }
+        return Ok(());
+    }
+    let params = preset.component_params().smacof;
+    for f in files {
+        let mesh = read_mesh(&workspace_path(&f))?.mesh;
+        let (norm, _) = geometry::normalize_unit_area(&mesh);
+        let topo = Topology::new(&norm);
+        let harris = keycomp_harris::detect(&norm, &topo, &preset.harris_params())?;
+        let (dist, _, _) = keypoint_distances(
+            &norm,
+            &topo,
+            &harris.keypoints,
+            &keycomp_components::GeodesicOptions::default(),
+        )?;
+        let k = harris.keypoints.len();
+        let name = std::path::Path::new(&f)
+            .file_name()
+            .map_or(f.clone(), |n| n.to_string_lossy().into_owned());
+        measure(&name, dist.as_slice(), k, &params, runs)?;
+    }
+    Ok(())
+}
