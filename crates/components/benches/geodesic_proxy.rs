@@ -15,10 +15,12 @@
 //!     [--runs 3] [--settings 20000@90,0@110,10000@90/100:2#12500,...] [--sphere 6] MESH...
 //! ```
 //!
-//! A setting is `N@ANGLE[/L[:F]]`: proxy of at most N vertices (0 = full mesh), obtuse corners
-//! split from ANGLE degrees, and optionally landmark fronts: L landmarks, short fronts stopped
-//! at F covering radii (default 2); a suffix `#C` simplifies in cells of at least C vertices
-//! (`GeodesicOptions::proxy_cell_vertices`; none: one cell). Threads: the global rayon pool
+//! A setting is `N@ANGLE[/L[:F[l]]]`: proxy of at most N vertices (0 = full mesh), obtuse
+//! corners split from ANGLE degrees, and optionally landmark fronts: L landmarks, short fronts
+//! stopped at F covering radii (default 2), or with the suffix `l` at F times each keypoint's
+//! own distance to its nearest landmark (`GeodesicOptions::local_landmark_radius`); a suffix
+//! `#C` simplifies in cells of at least C vertices (`GeodesicOptions::proxy_cell_vertices`;
+//! none: one cell). Threads: the global rayon pool
 //! (`RAYON_NUM_THREADS=2` for the two-thread figures). MESH paths are relative to the
 //! workspace root. When `cargo bench` did not run it, it prints its usage and measures nothing.
 
@@ -55,12 +57,17 @@ fn parse_setting(s: &str) -> Res<GeodesicOptions> {
     let (s, cells) = s.split_once('#').unwrap_or((s, "0"));
     let (s, landmarks) = s.split_once('/').unwrap_or((s, "0"));
     let (landmarks, radius) = landmarks.split_once(':').unwrap_or((landmarks, "2"));
+    let (radius, local) = match radius.strip_suffix('l') {
+        Some(r) => (r, true),
+        None => (radius, false),
+    };
     let (n, a) = s.split_once('@').unwrap_or((s, "90"));
     Ok(GeodesicOptions {
         proxy_vertices: n.parse()?,
         min_split_angle_degrees: a.parse()?,
         landmarks: landmarks.parse()?,
         landmark_radius: radius.parse()?,
+        local_landmark_radius: local,
         proxy_cell_vertices: cells.parse()?,
     })
 }
@@ -68,7 +75,12 @@ fn parse_setting(s: &str) -> Res<GeodesicOptions> {
 fn label(o: &GeodesicOptions) -> String {
     let base = format!("{}@{}", o.proxy_vertices, o.min_split_angle_degrees);
     let base = if o.landmarks > 0 {
-        format!("{base}/{}:{}", o.landmarks, o.landmark_radius)
+        format!(
+            "{base}/{}:{}{}",
+            o.landmarks,
+            o.landmark_radius,
+            if o.local_landmark_radius { "l" } else { "" }
+        )
     } else {
         base
     };

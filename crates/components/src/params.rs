@@ -118,6 +118,8 @@ impl Preset {
     pub const ROBUST_KEYPOINT_FRACTION: f64 = 0.02;
     /// [`SphereRule::Spread`]'s factor in the robust preset.
     pub const ROBUST_SPREAD_FACTOR: f64 = 1.2;
+    /// SMACOF's over-relaxation in the robust preset ([`SmacofParams::relaxation`]).
+    pub const ROBUST_SMACOF_RELAXATION: f64 = 1.5;
 
     /// Whether this is one of the paper's presets (KC-1, KC-2, KC-3).
     pub fn is_paper(self) -> bool {
@@ -164,6 +166,7 @@ impl Preset {
             smacof: match self {
                 Preset::Robust => SmacofParams {
                     starts: 1,
+                    relaxation: Self::ROBUST_SMACOF_RELAXATION,
                     ..SmacofParams::default()
                 },
                 _ => SmacofParams::default(),

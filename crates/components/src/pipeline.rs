@@ -66,12 +66,17 @@
 //! strength ≤ 5 is 0.848 against 0.844, no row more than 0.015 lower, and `keycomp detect`
 //! takes 0.41× (`nefertiti.obj`) and 0.37× (KIDS `0001.null.0`) the wall time
 //! (BENCHMARKS.md, *Detection* and *Repeatability*). `--landmarks 0 --smacof-starts 4
-//! --smacof-init random --geodesic-vertices 0` is the paper's method.
+//! --smacof-init random --geodesic-vertices 0` is the paper's method. The robust preset
+//! measures each short front in its own keypoint's distance to the nearest landmark instead
+//! ([`GeodesicOptions::local_landmark_radius`]): the covering radius is set by the one
+//! keypoint farthest from every landmark, and on a body with folded limbs (KIDS) it made every
+//! short front several times longer than most keypoints need (the time saved and the
+//! repeatability are in BENCHMARKS.md, *Detection*).
 
 use std::time::Instant;
 
 use keycomp_geodesic::{
-    DistanceMatrix, GeodesicError, GeodesicParams, GeodesicSolver, distance_matrix,
+    DistanceMatrix, GeodesicError, GeodesicParams, GeodesicSolver, ShortRadius, distance_matrix,
     landmark_distance_matrix,
 };
 use keycomp_harris::{HarrisError, HarrisParams};
@@ -81,7 +86,7 @@ use serde::{Deserialize, Serialize};
 use crate::cluster::{ClusterParams, adaptive_clustering};
 use crate::error::ComponentsError;
 use crate::grow::{Component, RegionGrower, geodesic_center};
-use crate::params::ComponentParams;
+use crate::params::{ComponentParams, Preset};
 use crate::smacof::{Embedding, smacof};
 use crate::sphere::{Sphere, SphereRule};
 
@@ -140,6 +145,13 @@ pub struct GeodesicOptions {
     /// [`GeodesicOptions::landmarks`] > 0.
     #[serde(default = "default_landmark_radius")]
     pub landmark_radius: f64,
+    /// Measure [`GeodesicOptions::landmark_radius`] in each keypoint's own distance to its
+    /// nearest landmark (at least the 90th percentile of those distances) instead of the covering
+    /// radius (`keycomp_geodesic::ShortRadius::Local`): one keypoint far from every landmark
+    /// then lengthens its own front only. Off by default and in a recorded parameter set
+    /// without the field; on in the robust preset ([`Preset::geodesic_options`]).
+    #[serde(default)]
+    pub local_landmark_radius: bool,
     /// The proxy's simplification runs in parallel in 2^d cells (pieces of the connectivity,
     /// see `keycomp_mesh::simplify`), d the largest that
     /// leaves at least this many referenced vertices per cell (at most
@@ -186,6 +198,7 @@ impl GeodesicOptions {
             min_split_angle_degrees: GeodesicParams::default().min_split_angle_degrees,
             landmarks: 0,
             landmark_radius: Self::DEFAULT_LANDMARK_RADIUS,
+            local_landmark_radius: false,
             proxy_cell_vertices: 0,
         }
     }
@@ -243,6 +256,17 @@ impl GeodesicOptions {
         GeodesicParams {
             min_split_angle_degrees: self.min_split_angle_degrees,
             ..GeodesicParams::default()
+        }
+    }
+}
+
+impl Preset {
+    /// The geodesic options of this preset: the defaults ([`GeodesicOptions::default`]), with
+    /// [`GeodesicOptions::local_landmark_radius`] in the robust preset.
+    pub fn geodesic_options(self) -> GeodesicOptions {
+        GeodesicOptions {
+            local_landmark_radius: matches!(self, Preset::Robust),
+            ..GeodesicOptions::default()
         }
     }
 }
@@ -577,7 +601,12 @@ fn matrix(
         .map(|&v| mesh.positions[v as usize])
         .collect();
     let landmarks = farthest_points(&points, options.landmarks);
-    landmark_distance_matrix(solver, sources, &landmarks, options.landmark_radius).map(|(m, _)| m)
+    let short = if options.local_landmark_radius {
+        ShortRadius::Local(options.landmark_radius)
+    } else {
+        ShortRadius::Covering(options.landmark_radius)
+    };
+    landmark_distance_matrix(solver, sources, &landmarks, short).map(|(m, _)| m)
 }
 
 /// `count` indices into `points` spread by farthest-point sampling (Euclidean): the first

@@ -164,6 +164,8 @@ mod solver;
 mod unfold;
 
 pub use error::GeodesicError;
-pub use matrix::{DistanceMatrix, LandmarkStats, distance_matrix, landmark_distance_matrix};
+pub use matrix::{
+    DistanceMatrix, LandmarkStats, ShortRadius, distance_matrix, landmark_distance_matrix,
+};
 pub use solver::{GeodesicParams, GeodesicSolver, QueueKind, Workspace};
 pub use unfold::ObtuseStats;

@@ -32,20 +32,29 @@
 //!
 //! 1. Each landmark l runs a full front (to every source): its row `d(l, ·)` is measured.
 //!    The *covering radius* h is the largest distance from a source to its nearest landmark.
-//! 2. Every other source runs a front stopped at `ρ = radius_factor · h`
-//!    ([`GeodesicSolver::solve_within`]): its distances to the sources within ρ are measured.
-//!    A source no landmark reaches (a piece without a landmark) runs a full front instead.
+//! 2. Every other source i runs a front stopped at a radius ρ_i
+//!    ([`GeodesicSolver::solve_within`]): its distances to the sources within ρ_i are
+//!    measured. [`ShortRadius::Covering`]`(f)`: `ρ_i = f · h` for every source.
+//!    [`ShortRadius::Local`]`(f)`: `ρ_i = f · max(h_i, h̃)`, with `h_i` the source's own
+//!    distance to its nearest landmark and `h̃` the 90th percentile of the `h_i`, so that the
+//!    few sources far from every landmark (a hand folded against the body, say) do not
+//!    lengthen every front. A source no landmark reaches (a piece without a landmark) runs a full front
+//!    instead.
 //! 3. A pair measured from both ends gets the average, as above; from one end, that value;
-//!    from neither (both non-landmarks, farther than ρ apart), the shortest path through one
-//!    landmark, `min_l d(i, l) + d(l, j)`: an upper bound of the geodesic distance, off by
-//!    the detour through the best landmark, which is small for pairs farther apart than
-//!    the landmarks' spacing (ρ ≥ 2h puts every estimated pair beyond twice that radius).
+//!    from neither (both non-landmarks, farther apart than both radii), the shortest path
+//!    through one landmark, `min_l d(i, l) + d(l, j)`: an upper bound of the geodesic
+//!    distance, off by at most `2·min(h_i, h_j)` (the detour through the nearest landmark of
+//!    either end), which is small for pairs farther apart than the landmarks' spacing. Either
+//!    rule bounds that error by `2/f` of the pair's distance (`2h_i / ρ_i ≤ 2/f`); the local
+//!    rule measures fewer pairs where the landmarks are dense.
 //!
-//! Cost: L full fronts, K − L fronts over the area within ρ, and O(K² L) for the estimates.
+//! Cost: L full fronts, K − L fronts over the area within their radii, and O(K² L) for the
+//! estimates.
 //! With L = 100 of the K = 500 keypoints of `nefertiti.obj` on its 20k-vertex proxy and
 //! ρ = 2h, the matrix differs from the one of K full fronts by 0.75 % on average
 //! (BENCHMARKS.md, section 2, *Landmark fronts and a classical start*, with its cost).
 
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Mutex, PoisonError};
 
 use keycomp_mesh::VertexId;
@@ -168,34 +177,51 @@ fn with_workspace<T>(
 }
 
 /// Symmetrises `pair(i, j) = (r_ij, r_ji)` for i < j into a [`DistanceMatrix`] and fills the
-/// disconnected pairs (steps 2 and 3 of the module docs).
+/// disconnected pairs (steps 2 and 3 of the module docs). The upper triangle is filled in
+/// parallel over rows (each entry depends on its pair alone, and the largest value and the
+/// count of disconnected pairs do not depend on the order they are combined in), then mirrored.
 fn assemble(
     solver: &GeodesicSolver,
     k: usize,
-    pair: impl Fn(usize, usize) -> (f64, f64),
+    pair: impl Fn(usize, usize) -> (f64, f64) + Sync,
 ) -> DistanceMatrix {
     let mut data = vec![0.0; k * k];
     let mut disconnected = vec![false; k * k];
-    let mut largest = 0.0f64;
-    let mut pairs = 0;
-    for i in 0..k {
-        for j in i + 1..k {
-            let (a, b) = pair(i, j);
-            let d = if a.is_finite() && b.is_finite() {
-                0.5 * (a + b)
-            } else if a.is_finite() || b.is_finite() {
-                // cannot happen with exact arithmetic (reachability is symmetric); keep the
-                // finite value rather than inventing one
-                a.min(b)
-            } else {
-                pairs += 1;
-                disconnected[i * k + j] = true;
-                disconnected[j * k + i] = true;
-                continue;
-            };
-            largest = largest.max(d);
-            data[i * k + j] = d;
-            data[j * k + i] = d;
+    let (largest, pairs) = data
+        .par_chunks_mut(k.max(1))
+        .zip(disconnected.par_chunks_mut(k.max(1)))
+        .enumerate()
+        .map(|(i, (row, off))| {
+            let (mut largest, mut pairs) = (0.0f64, 0usize);
+            for j in i + 1..k {
+                let (a, b) = pair(i, j);
+                let d = if a.is_finite() && b.is_finite() {
+                    0.5 * (a + b)
+                } else if a.is_finite() || b.is_finite() {
+                    // cannot happen with exact arithmetic (reachability is symmetric); keep
+                    // the finite value rather than inventing one
+                    a.min(b)
+                } else {
+                    pairs += 1;
+                    off[j] = true;
+                    continue;
+                };
+                largest = largest.max(d);
+                row[j] = d;
+            }
+            (largest, pairs)
+        })
+        .reduce(|| (0.0, 0), |a, b| (a.0.max(b.0), a.1 + b.1));
+    // mirror the upper triangle, in tiles so that both sides stay in cache
+    const TILE: usize = 64;
+    for bi in (0..k).step_by(TILE) {
+        for bj in (bi..k).step_by(TILE) {
+            for i in bi..(bi + TILE).min(k) {
+                for j in bj.max(i + 1)..(bj + TILE).min(k) {
+                    data[j * k + i] = data[i * k + j];
+                    disconnected[j * k + i] = disconnected[i * k + j];
+                }
+            }
         }
     }
     let scale = if largest > 0.0 {
@@ -222,6 +248,18 @@ fn assemble(
     }
 }
 
+/// Where the short fronts of [`landmark_distance_matrix`] stop (step 2 of *Landmark fronts* in
+/// the module docs). The factor must be a positive number; any other value is taken as +∞
+/// (every front full).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ShortRadius {
+    /// `f · h`, h the covering radius, for every source.
+    Covering(f64),
+    /// `f · max(h_i, h̃)`: `h_i` the source's distance to its nearest landmark, `h̃` the 90th
+    /// percentile of the `h_i`.
+    Local(f64),
+}
+
 /// What [`landmark_distance_matrix`] computed, beside the matrix.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LandmarkStats {
@@ -233,7 +271,7 @@ pub struct LandmarkStats {
     /// The covering radius h: the largest distance from a source to its nearest landmark (over
     /// the sources some landmark reaches), in mesh units.
     pub covering_radius: f64,
-    /// Where the short fronts stopped: `radius_factor · h`, in mesh units.
+    /// The farthest a short front ran: `f · h` under [`ShortRadius::Covering`], in mesh units.
     pub radius: f64,
     /// Unordered pairs {i, j} whose distance is estimated through the landmarks (no front
     /// measured it).
@@ -244,15 +282,14 @@ pub struct LandmarkStats {
 /// others (see *Landmark fronts* in the module documentation), in place of
 /// [`distance_matrix`]'s K full fronts.
 ///
-/// `landmarks` are positions in `sources`, each at most once; `radius_factor` (> 0, finite)
-/// sets where the short fronts stop, in covering radii. With every source a landmark the result
-/// is [`distance_matrix`]'s. Errors: a source id out of range, a landmark index out of range or
-/// repeated. A `radius_factor` that is not a positive number is taken as +∞ (every front full).
+/// `landmarks` are positions in `sources`, each at most once; `short` sets where the short
+/// fronts stop. With every source a landmark the result is [`distance_matrix`]'s. Errors: a
+/// source id out of range, a landmark index out of range or repeated.
 pub fn landmark_distance_matrix(
     solver: &GeodesicSolver,
     sources: &[VertexId],
     landmarks: &[usize],
-    radius_factor: f64,
+    short: ShortRadius,
 ) -> Result<(DistanceMatrix, LandmarkStats), GeodesicError> {
     let k = sources.len();
     // slot of each source among the landmarks
@@ -294,11 +331,39 @@ pub fn landmark_distance_matrix(
         .copied()
         .filter(|d| d.is_finite())
         .fold(0.0, f64::max);
-    let radius = if radius_factor > 0.0 && radius_factor.is_finite() {
-        radius_factor * covering_radius
+    let (factor, local) = match short {
+        ShortRadius::Covering(f) => (f, false),
+        ShortRadius::Local(f) => (f, true),
+    };
+    let factor = if factor > 0.0 && factor.is_finite() {
+        factor
     } else {
         f64::INFINITY
     };
+    let floor = if local {
+        let mut reached: Vec<f64> = nearest.iter().copied().filter(|d| d.is_finite()).collect();
+        reached.sort_unstable_by(f64::total_cmp);
+        reached.get(reached.len() * 9 / 10).copied().unwrap_or(0.0)
+    } else {
+        covering_radius
+    };
+    let radius_of = |i: usize| {
+        let reach = if local {
+            nearest[i].max(floor)
+        } else {
+            covering_radius
+        };
+        // ∞ · 0 is NaN: a front with no finite bound runs in full
+        if factor.is_finite() {
+            factor * reach
+        } else {
+            f64::INFINITY
+        }
+    };
+    let radius = (0..k)
+        .filter(|&i| slot[i] == usize::MAX && nearest[i].is_finite())
+        .map(radius_of)
+        .fold(0.0, f64::max);
 
     // 2. the other sources: a front stopped at `radius`, or a full one where no landmark
     //    reaches the source; `Short::complete` = the front covered the source's whole piece
@@ -312,7 +377,7 @@ pub fn landmark_distance_matrix(
         .map(|&i| {
             if nearest[i].is_finite() {
                 with_workspace(&workspaces, |ws| {
-                    let complete = solver.solve_within(sources[i], radius, ws)?;
+                    let complete = solver.solve_within(sources[i], radius_of(i), ws)?;
                     Ok(Short {
                         row: sources.iter().map(|&t| ws.distance(t)).collect(),
                         complete,
@@ -342,13 +407,13 @@ pub fn landmark_distance_matrix(
         let d = s.row[j];
         (d.is_finite() || s.complete).then_some(d)
     };
-    let estimated = std::cell::Cell::new(0usize);
+    let estimated = AtomicUsize::new(0);
     let matrix = assemble(solver, k, |i, j| match (measured(i, j), measured(j, i)) {
         (Some(a), Some(b)) => (a, b),
         (Some(a), None) => (a, a),
         (None, Some(b)) => (b, b),
         (None, None) => {
-            estimated.set(estimated.get() + 1);
+            estimated.fetch_add(1, Ordering::Relaxed);
             let d = through_landmarks(&through[i], &through[j]);
             (d, d)
         }
@@ -358,7 +423,7 @@ pub fn landmark_distance_matrix(
         short_fronts: k - full_fronts,
         covering_radius,
         radius,
-        estimated_pairs: estimated.get(),
+        estimated_pairs: estimated.into_inner(),
     };
     Ok((matrix, stats))
 }

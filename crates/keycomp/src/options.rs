@@ -98,9 +98,10 @@ impl DetectOptions {
         p
     }
 
-    /// The geodesic options: the default with the proxy, corner and landmark options on top.
+    /// The geodesic options: the preset's ([`Preset::geodesic_options`]) with the proxy,
+    /// corner and landmark options on top.
     pub fn geodesic(&self) -> GeodesicOptions {
-        let mut g = GeodesicOptions::default();
+        let mut g = self.preset.geodesic_options();
         if let Some(n) = self.geodesic_vertices {
             g.proxy_vertices = n;
         }

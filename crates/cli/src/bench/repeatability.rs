@@ -278,7 +278,11 @@ impl Args {
                 ..self.speed.options()
             }
             .smacof(base_smacof),
-            geodesic: self.speed.options().geodesic(),
+            geodesic: DetectOptions {
+                preset: lead.unwrap_or_default(),
+                ..self.speed.options()
+            }
+            .geodesic(),
             mser: MserParams::default(),
             kinds,
             isometry,
