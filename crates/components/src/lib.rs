@@ -33,5 +33,5 @@ pub use pipeline::{
     DetectError, DetectParams, Detection, Extracted, ExtractedComponent, GeodesicOptions,
     KeyComponent, Timings, detect, extract_components, keypoint_distances,
 };
-pub use smacof::{Embedding, SmacofParams, smacof};
+pub use smacof::{Embedding, SmacofParams, UpperTriangle, smacof, smacof_upper};
 pub use sphere::{Sphere, SphereRule, min_enclosing_sphere, spread_sphere};

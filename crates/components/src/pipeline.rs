@@ -87,7 +87,7 @@ use crate::cluster::{ClusterParams, adaptive_clustering};
 use crate::error::ComponentsError;
 use crate::grow::{Component, RegionGrower, geodesic_center};
 use crate::params::{ComponentParams, Preset};
-use crate::smacof::{Embedding, smacof};
+use crate::smacof::{Embedding, UpperTriangle, smacof_upper};
 use crate::sphere::{Sphere, SphereRule};
 
 /// All parameters of detection: the keypoint detector, the components stage and the geodesic
@@ -390,7 +390,12 @@ pub fn detect(mesh: &Mesh, params: &DetectParams) -> Result<Detection, DetectErr
 
     let t = Instant::now();
     let k = harris.keypoints.len();
-    let embedding = smacof(dist.as_slice(), k, &params.components.smacof)?;
+    // SMACOF reads the packed upper triangle; the square matrix goes first (its memory is the
+    // largest of detection's on meshes with thousands of keypoints)
+    let disconnected_pairs = dist.disconnected_pairs();
+    let upper = UpperTriangle::from_square(dist.into_vec(), k)?;
+    let embedding = smacof_upper(&upper, &params.components.smacof)?;
+    drop(upper);
     let t_mds = ms(t);
 
     let t = Instant::now();
@@ -435,7 +440,7 @@ pub fn detect(mesh: &Mesh, params: &DetectParams) -> Result<Detection, DetectErr
         response: harris.response,
         keypoints: harris.keypoints,
         embedding,
-        disconnected_pairs: dist.disconnected_pairs(),
+        disconnected_pairs,
         geodesic_vertices,
         unclustered,
         components,

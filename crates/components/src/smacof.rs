@@ -26,11 +26,11 @@
 //! 4. Keep the start with the lowest final stress (ties: the lowest start index).
 //!
 //! Complexity: O(K²) time per iteration (one pass over the upper triangle, branch-free and
-//! laid out for SIMD, parallel over the blocks), O(K²/2) extra memory per start for a packed
-//! copy of the upper triangle (read in order, half the cache footprint of the square matrix)
-//! and O(K) per block, no allocation inside the iteration loop; at most
-//! `starts · (max_iter + 1)` passes in total. The classical start's products run in parallel
-//! over rows.
+//! laid out for SIMD, parallel over the blocks), no allocation inside the iteration loop; at
+//! most `starts · (max_iter + 1)` passes in total. Memory: the packed upper triangle
+//! ([`UpperTriangle`], K²/2 values read in order, shared by the starts; detection packs the
+//! square matrix in its own memory, [`UpperTriangle::from_square`]) and O(K) per block. The
+//! classical start's products sweep the same blocks, without forming its K×K matrix.
 //!
 //! The matrix is read from its upper triangle (`i < j`); the lower triangle is only checked to
 //! be the mirror image (relative tolerance 1e-9) and the diagonal is ignored.
@@ -181,8 +181,17 @@ pub fn smacof(
     params: &SmacofParams,
 ) -> Result<Embedding, ComponentsError> {
     params.validate()?;
-    check_matrix(distances, k)?;
-    match k {
+    smacof_upper(&UpperTriangle::new(distances, k)?, params)
+}
+
+/// [`smacof`] of a matrix already packed ([`UpperTriangle::new`]), so that the caller can free
+/// the square matrix first.
+pub fn smacof_upper(
+    delta: &UpperTriangle,
+    params: &SmacofParams,
+) -> Result<Embedding, ComponentsError> {
+    params.validate()?;
+    match delta.k {
         0 => {
             return Ok(Embedding {
                 points: Vec::new(),
@@ -198,7 +207,7 @@ pub fn smacof(
             });
         }
         2 => {
-            let h = distances[1] / 2.0;
+            let h = delta.values[0] * delta.unit / 2.0;
             return Ok(Embedding {
                 points: vec![[-h, 0.0], [h, 0.0]],
                 stress: 0.0,
@@ -209,7 +218,7 @@ pub fn smacof(
     }
     let runs: Vec<Embedding> = (0..params.starts)
         .into_par_iter()
-        .map(|s| run_start(distances, k, params, s as u64, |_| {}))
+        .map(|s| run_start(delta, params, s as u64, |_| {}))
         .collect();
     // lowest stress, ties to the lowest start index (min_by keeps the first of equal elements)
     let best = runs
@@ -219,6 +228,81 @@ pub fn smacof(
             what: "set of SMACOF starts",
         })?;
     Ok(best)
+}
+
+/// The upper triangle of a distance matrix (`δ_ij`, `i < j`), row after row (row `i` at
+/// [`row_start`]`(i, k)`), divided by `unit`, the power of two that brings the largest distance
+/// into `[½, 1)` (1 when every distance is 0): what SMACOF reads. Half the memory of the square
+/// matrix, read in order, with coordinates of order 1; dividing by a power of two is exact, so
+/// scaling back is too.
+#[derive(Debug, Clone, PartialEq)]
+pub struct UpperTriangle {
+    k: usize,
+    values: Vec<f64>,
+    unit: f64,
+}
+
+impl UpperTriangle {
+    /// Packs a `k × k` symmetric row-major matrix of finite non-negative values. Errors as
+    /// [`smacof`]'s for the matrix.
+    pub fn new(distances: &[f64], k: usize) -> Result<UpperTriangle, ComponentsError> {
+        check_matrix(distances, k)?;
+        let unit = scale_unit(upper_max(distances, k));
+        let mut values = Vec::with_capacity(k * k.saturating_sub(1) / 2);
+        for i in 0..k {
+            values.extend(
+                distances[i * k + i + 1..(i + 1) * k]
+                    .iter()
+                    .map(|d| d / unit),
+            );
+        }
+        Ok(UpperTriangle { k, values, unit })
+    }
+
+    /// [`UpperTriangle::new`], packed in the square matrix's own memory (no second copy).
+    pub fn from_square(
+        mut distances: Vec<f64>,
+        k: usize,
+    ) -> Result<UpperTriangle, ComponentsError> {
+        check_matrix(&distances, k)?;
+        let max = upper_max(&distances, k);
+        let unit = scale_unit(max);
+        // rows move left (row i's start never passes its place in the square), in order
+        let mut at = 0;
+        for i in 0..k {
+            let m = k - i - 1;
+            distances.copy_within(i * k + i + 1..(i + 1) * k, at);
+            at += m;
+        }
+        distances.truncate(at);
+        distances.shrink_to_fit();
+        distances.iter_mut().for_each(|d| *d /= unit);
+        Ok(UpperTriangle {
+            k,
+            values: distances,
+            unit,
+        })
+    }
+
+    /// Number of points K.
+    pub fn len(&self) -> usize {
+        self.k
+    }
+
+    /// Whether there are no points.
+    pub fn is_empty(&self) -> bool {
+        self.k == 0
+    }
+
+    /// Row `i`'s scaled distances to the points `j > i`.
+    fn row(&self, i: usize) -> &[f64] {
+        &self.values[row_start(i, self.k)..][..self.k - i - 1]
+    }
+
+    /// The largest scaled distance.
+    fn max(&self) -> f64 {
+        self.values.iter().copied().fold(0.0, f64::max)
+    }
 }
 
 fn check_matrix(d: &[f64], k: usize) -> Result<(), ComponentsError> {
@@ -328,16 +412,15 @@ struct Work {
 /// Runs one start (index `start`) to convergence; `on_stress` sees the stress of every iterate
 /// in order (for tests).
 fn run_start(
-    delta: &[f64],
-    k: usize,
+    delta: &UpperTriangle,
     params: &SmacofParams,
     start: u64,
     mut on_stress: impl FnMut(f64),
 ) -> Embedding {
     let mut rng = ChaCha8Rng::seed_from_u64(params.seed);
     rng.set_stream(start);
-    let (packed, unit) = packed_upper(delta, k);
-    let scale = upper_max(delta, k) / unit;
+    let (k, unit) = (delta.k, delta.unit);
+    let scale = delta.max();
     let mut w = Work {
         x: Vec::with_capacity(k),
         y: Vec::with_capacity(k),
@@ -347,12 +430,12 @@ fn run_start(
         blocks: blocks(k),
     };
     match (start == 0 && params.classical_start)
-        .then(|| classical(delta, k))
+        .then(|| classical(delta, &mut w.blocks))
         .flatten()
     {
         Some((x, y)) => {
-            w.x = x.iter().map(|v| v / unit).collect();
-            w.y = y.iter().map(|v| v / unit).collect();
+            w.x = x;
+            w.y = y;
         }
         None => {
             for _ in 0..k {
@@ -364,7 +447,7 @@ fn run_start(
     let mut prev: Option<f64> = None;
     let mut iterations = 0;
     let stress = loop {
-        let stress = guttman(&packed, k, &mut w) * unit * unit;
+        let stress = guttman(delta, &mut w) * unit * unit;
         on_stress(stress);
         if stress == 0.0 || iterations == params.max_iter {
             break stress;
@@ -402,7 +485,8 @@ fn run_start(
 
 /// One Guttman transform: writes `(1/K)·B(X)·X` into `w.nx, w.ny` and returns `σ(X)`. The
 /// blocks of rows run in parallel ([`sweep`]), then their sums are added in block order.
-fn guttman(delta: &[f64], k: usize, w: &mut Work) -> f64 {
+fn guttman(delta: &UpperTriangle, w: &mut Work) -> f64 {
+    let k = delta.k;
     let Work {
         x,
         y,
@@ -415,13 +499,7 @@ fn guttman(delta: &[f64], k: usize, w: &mut Work) -> f64 {
     blocks.par_iter_mut().for_each(|block| {
         // compiled for the widest vector unit the CPU has: the same operations in the same
         // order, so the same result bit for bit, only more lanes at once
-        pulp::Arch::new().dispatch(Sweep {
-            delta,
-            k,
-            x,
-            y,
-            block,
-        })
+        pulp::Arch::new().dispatch(Sweep { delta, x, y, block })
     });
     let mut stress = 0.0;
     nx.fill(0.0);
@@ -449,8 +527,7 @@ fn guttman(delta: &[f64], k: usize, w: &mut Work) -> f64 {
 /// `inline(always)`) compiles the transform's loops for that set. (A closure would not do: one
 /// that is not inlined keeps the baseline set.)
 struct Sweep<'a> {
-    delta: &'a [f64],
-    k: usize,
+    delta: &'a UpperTriangle,
     x: &'a [f64],
     y: &'a [f64],
     block: &'a mut Block,
@@ -461,30 +538,20 @@ impl pulp::WithSimd for Sweep<'_> {
 
     #[inline(always)]
     fn with_simd<S: pulp::Simd>(self, _simd: S) {
-        sweep(self.delta, self.k, self.x, self.y, self.block)
+        sweep(self.delta, self.x, self.y, self.block)
     }
 }
 
-/// The upper triangle of `delta` (`δ_ij`, `i < j`), row after row (row `i` at
-/// [`row_start`]`(i, k)`), divided by `unit`, the power of two that brings the largest distance
-/// into `[½, 1)` (1 when every distance is 0). The transform runs on these values: half the
-/// memory of the square matrix, read in order, and coordinates of order 1 (see
-/// [`inverse_sqrt`]); dividing by a power of two is exact, so scaling back is too.
-fn packed_upper(delta: &[f64], k: usize) -> (Vec<f64>, f64) {
-    let max = upper_max(delta, k);
-    let unit = if max > 0.0 {
+/// The power of two that brings `max` into `[½, 1)` (1 for 0).
+fn scale_unit(max: f64) -> f64 {
+    if max > 0.0 {
         2f64.powi((max.log2().floor() as i32 + 1).clamp(-1000, 1000))
     } else {
         1.0
-    };
-    let mut packed = Vec::with_capacity(k * k.saturating_sub(1) / 2);
-    for i in 0..k {
-        packed.extend(delta[i * k + i + 1..(i + 1) * k].iter().map(|d| d / unit));
     }
-    (packed, unit)
 }
 
-/// Where row `i` (its pairs `j > i`) starts in [`packed_upper`]'s triangle of a `k × k` matrix.
+/// Where row `i` (its pairs `j > i`) starts in an [`UpperTriangle`] of `k` points.
 fn row_start(i: usize, k: usize) -> usize {
     i * (k - 1) - i * i.saturating_sub(1) / 2
 }
@@ -517,7 +584,8 @@ fn nonzero_or_zero(q: f64, d: f64) -> f64 {
 /// independent accumulators. Inlined into its caller's `pulp` dispatch, which compiles it for
 /// AVX2 and AVX-512 as well and picks the widest the CPU has at run time.
 #[inline(always)]
-fn sweep(delta: &[f64], k: usize, x: &[f64], y: &[f64], block: &mut Block) {
+fn sweep(delta: &UpperTriangle, x: &[f64], y: &[f64], block: &mut Block) {
+    let k = delta.k;
     let Block {
         first,
         end,
@@ -536,7 +604,7 @@ fn sweep(delta: &[f64], k: usize, x: &[f64], y: &[f64], block: &mut Block) {
     for i in first..*end {
         let (xi, yi) = (x[i], y[i]);
         let m = k - i - 1;
-        let row = &delta[row_start(i, k)..][..m];
+        let row = delta.row(i);
         let (xs, ys) = (&x[i + 1..], &y[i + 1..]);
         let local = i - first;
         let (tx_head, txs) = tx.split_at_mut(local + 1);
@@ -602,91 +670,143 @@ fn sweep(delta: &[f64], k: usize, x: &[f64], y: &[f64], block: &mut Block) {
     *block_stress = stress;
 }
 
-/// `bu = B·u` and `bv = B·v` for some rows `b` of a matrix with `k` columns, in one pass over
-/// them, as a `pulp` operation (see [`Sweep`]).
-struct Products<'a> {
-    b: &'a [f64],
-    k: usize,
-    u: &'a [f64],
-    v: &'a [f64],
-    bu: &'a mut [f64],
-    bv: &'a mut [f64],
-}
-
-impl pulp::WithSimd for Products<'_> {
-    type Output = ();
-
-    #[inline(always)]
-    fn with_simd<S: pulp::Simd>(self, _simd: S) {
-        let full = self.k / LANES * LANES;
-        for ((row, ou), ov) in self
-            .b
-            .chunks_exact(self.k)
-            .zip(self.bu.iter_mut())
-            .zip(self.bv.iter_mut())
-        {
-            let (mut su, mut sv) = ([0.0; LANES], [0.0; LANES]);
-            for ((a, x), y) in row[..full]
-                .chunks_exact(LANES)
-                .zip(self.u[..full].chunks_exact(LANES))
-                .zip(self.v[..full].chunks_exact(LANES))
-            {
-                for l in 0..LANES {
-                    su[l] += a[l] * x[l];
-                    sv[l] += a[l] * y[l];
-                }
-            }
-            let (mut tu, mut tv) = (
-                (su[0] + su[1]) + (su[2] + su[3]),
-                (sv[0] + sv[1]) + (sv[2] + sv[3]),
-            );
-            for ((a, x), y) in row[full..].iter().zip(&self.u[full..]).zip(&self.v[full..]) {
-                tu += a * x;
-                tv += a * y;
-            }
-            (*ou, *ov) = (tu, tv);
+/// `Δ²u` and `Δ²v` into `out_u`, `out_v` (`Δ²` the squared scaled distances, zero on the
+/// diagonal): the blocks of rows in parallel, then their sums in block order, as in
+/// [`guttman`], so the result is the same on any number of threads.
+fn squared_products(
+    delta: &UpperTriangle,
+    blocks: &mut [Block],
+    u: &[f64],
+    v: &[f64],
+    out_u: &mut [f64],
+    out_v: &mut [f64],
+) {
+    blocks
+        .par_iter_mut()
+        .for_each(|block| pulp::Arch::new().dispatch(SquaredSweep { delta, u, v, block }));
+    out_u.fill(0.0);
+    out_v.fill(0.0);
+    let k = delta.k;
+    for block in blocks.iter() {
+        let f = block.first;
+        for ((i, &a), &b) in (f..k).zip(&block.tx).zip(&block.ty) {
+            out_u[i] += a;
+            out_v[i] += b;
         }
     }
 }
 
-/// Rows per parallel piece of [`classical`]'s products.
-const PRODUCT_ROWS: usize = 64;
+/// [`squared_sweep`] as a `pulp` operation (see [`Sweep`]).
+struct SquaredSweep<'a> {
+    delta: &'a UpperTriangle,
+    u: &'a [f64],
+    v: &'a [f64],
+    block: &'a mut Block,
+}
+
+impl pulp::WithSimd for SquaredSweep<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) {
+        squared_sweep(self.delta, self.u, self.v, self.block)
+    }
+}
+
+/// One block's share of [`squared_products`]: for its rows `i` and every `j > i`, adds
+/// `δ²_ij·u_j` to row `i`'s sums and `δ²_ij·u_i` to row `j`'s (and the same for `v`), into the
+/// block's `tx` (for `u`) and `ty` (for `v`). Laid out as [`sweep`]: an element-wise loop, then
+/// sums over `LANES` accumulators.
+#[inline(always)]
+fn squared_sweep(delta: &UpperTriangle, u: &[f64], v: &[f64], block: &mut Block) {
+    let Block {
+        first,
+        end,
+        tx,
+        ty,
+        b,
+        ..
+    } = block;
+    let first = *first;
+    tx.fill(0.0);
+    ty.fill(0.0);
+    for i in first..*end {
+        let row = delta.row(i);
+        let m = row.len();
+        let (ui, vi) = (u[i], v[i]);
+        let (us, vs) = (&u[i + 1..], &v[i + 1..]);
+        let local = i - first;
+        let (tx_head, txs) = tx.split_at_mut(local + 1);
+        let (ty_head, tys) = ty.split_at_mut(local + 1);
+        let sq = &mut b[..m];
+        for (((&d, s), tj), yj) in row
+            .iter()
+            .zip(sq.iter_mut())
+            .zip(txs.iter_mut())
+            .zip(tys.iter_mut())
+        {
+            let d2 = d * d;
+            *s = d2;
+            *tj += d2 * ui;
+            *yj += d2 * vi;
+        }
+        let (mut au, mut av) = ([0.0; LANES], [0.0; LANES]);
+        let full = m / LANES * LANES;
+        for ((sc, uc), vc) in sq[..full]
+            .chunks_exact(LANES)
+            .zip(us[..full].chunks_exact(LANES))
+            .zip(vs[..full].chunks_exact(LANES))
+        {
+            for l in 0..LANES {
+                au[l] += sc[l] * uc[l];
+                av[l] += sc[l] * vc[l];
+            }
+        }
+        let (mut su, mut sv) = (0.0, 0.0);
+        for j in full..m {
+            su += sq[j] * us[j];
+            sv += sq[j] * vs[j];
+        }
+        for l in 0..LANES {
+            su += au[l];
+            sv += av[l];
+        }
+        tx_head[local] += su;
+        ty_head[local] += sv;
+    }
+}
 
 /// Most subspace-iteration steps of [`classical`] (each two K×K products).
 const CLASSICAL_STEPS: usize = 100;
 
 /// Classical scaling (Torgerson 1952; Borg & Groenen 2005, ch. 12): the two leading
 /// eigenvectors of `B = −½ J Δ² J` (`Δ²` the squared distances, `J` the centring matrix),
-/// scaled by the square roots of their eigenvalues, as x and y coordinates. The eigenvectors
-/// come from subspace iteration on `B` from a fixed start, orthonormalised at every step,
-/// until the pair moves by less than 1e-6 (1 − |cos|) or after [`CLASSICAL_STEPS`] steps: a
-/// start for SMACOF needs no more. `B` is formed once (K² values). Subspace iteration finds
-/// the eigenvalues of largest magnitude; `None` when either is not positive (every distance 0,
-/// or a non-Euclidean matrix whose most negative eigenvalue dominates), so that the caller
-/// falls back to a random start.
-fn classical(delta: &[f64], k: usize) -> Option<(Vec<f64>, Vec<f64>)> {
-    // B_ij = −½ (δ²_ij − r_i − r_j + g), r the row means of Δ², g their mean; formed in
-    // place over Δ²
-    let mut b: Vec<f64> = delta.par_iter().map(|d| d * d).collect();
-    let r: Vec<f64> = b
-        .par_chunks_exact(k)
-        .map(|row| row.iter().sum::<f64>() / k as f64)
-        .collect();
+/// scaled by the square roots of their eigenvalues, as x and y coordinates (in the triangle's
+/// scaled units). The eigenvectors come from subspace iteration on `B` from a fixed start,
+/// orthonormalised at every step, until the pair moves by less than 1e-6 (1 − |cos|) or after
+/// [`CLASSICAL_STEPS`] steps: a start for SMACOF needs no more. `B` is never formed:
+/// `(Bu)_i = −½ ((Δ²u)_i − r_i·Σu − r·u + g·Σu)`, `r` the row means of `Δ²` and `g` their
+/// mean, so a product is one pass over the packed triangle ([`squared_products`]). Subspace
+/// iteration finds the eigenvalues of largest magnitude; `None` when either is not positive
+/// (every distance 0, or a non-Euclidean matrix whose most negative eigenvalue dominates), so
+/// that the caller falls back to a random start.
+fn classical(delta: &UpperTriangle, blocks: &mut [Block]) -> Option<(Vec<f64>, Vec<f64>)> {
+    let k = delta.k;
+    let dot = |a: &[f64], c: &[f64]| a.iter().zip(c).map(|(x, y)| x * y).sum::<f64>();
+    let ones = vec![1.0; k];
+    let (mut r, mut unused) = (vec![0.0; k], vec![0.0; k]);
+    squared_products(delta, blocks, &ones, &ones, &mut r, &mut unused);
+    r.iter_mut().for_each(|x| *x /= k as f64);
     let g = r.iter().sum::<f64>() / k as f64;
-    b.par_chunks_exact_mut(k).zip(&r).for_each(|(row, &ri)| {
-        for (x, &rj) in row.iter_mut().zip(&r) {
-            *x = -0.5 * (*x - ri - rj + g);
+    // Bu and Bv from Δ²u and Δ²v
+    let mut products = |u: &[f64], v: &[f64], bu: &mut [f64], bv: &mut [f64]| {
+        squared_products(delta, blocks, u, v, bu, bv);
+        for (w, out) in [(u, bu), (v, bv)] {
+            let (sum, ru) = (w.iter().sum::<f64>(), dot(&r, w));
+            for (o, &ri) in out.iter_mut().zip(&r) {
+                *o = -0.5 * (*o - ri * sum - ru + g * sum);
+            }
         }
-    });
-    // Bu and Bv in one pass over B (each row read once), over `LANES` independent sums so the
-    // loop vectorises, compiled for the widest vector unit the CPU has
-    // Rows in parallel, in pieces of `PRODUCT_ROWS`: each row's sums are the same whichever
-    // thread computes them.
-    let products = |u: &[f64], v: &[f64], bu: &mut [f64], bv: &mut [f64]| {
-        b.par_chunks(k * PRODUCT_ROWS)
-            .zip(bu.par_chunks_mut(PRODUCT_ROWS))
-            .zip(bv.par_chunks_mut(PRODUCT_ROWS))
-            .for_each(|((b, bu), bv)| pulp::Arch::new().dispatch(Products { b, k, u, v, bu, bv }))
     };
     // a fixed, non-symmetric start: not orthogonal to the leading pair for any real shape
     let mut u: Vec<f64> = (0..k)
@@ -696,7 +816,6 @@ fn classical(delta: &[f64], k: usize) -> Option<(Vec<f64>, Vec<f64>)> {
         .map(|i| ((i * 104_729) % 997) as f64 / 997.0 - 0.5)
         .collect();
     let (mut bu, mut bv) = (vec![0.0; k], vec![0.0; k]);
-    let dot = |a: &[f64], c: &[f64]| a.iter().zip(c).map(|(x, y)| x * y).sum::<f64>();
     for _ in 0..CLASSICAL_STEPS {
         products(&u, &v, &mut bu, &mut bv);
         // Gram–Schmidt: u ← Bu/|Bu|, v ← Bv ⟂ u, normalised
@@ -826,8 +945,13 @@ mod tests {
         // the subspace iteration's tolerance, and SMACOF finishes it in a few transforms
         let p = random_points(40, 11);
         let d = dist_matrix(&p);
-        let (x, y) = classical(&d, 40).unwrap();
-        let got: Vec<[f64; 2]> = x.iter().zip(&y).map(|(&a, &b)| [a, b]).collect();
+        let t = UpperTriangle::new(&d, 40).unwrap();
+        let (x, y) = classical(&t, &mut blocks(40)).unwrap();
+        let got: Vec<[f64; 2]> = x
+            .iter()
+            .zip(&y)
+            .map(|(&a, &b)| [a * t.unit, b * t.unit])
+            .collect();
         let err = d
             .iter()
             .zip(&dist_matrix(&got))
@@ -882,7 +1006,7 @@ mod tests {
         );
         // every distance 0: no classical solution, a random start instead (and zero stress)
         let zero = vec![0.0; 16];
-        assert!(classical(&zero, 4).is_none());
+        assert!(classical(&UpperTriangle::new(&zero, 4).unwrap(), &mut blocks(4)).is_none());
         let e = smacof(&zero, 4, &with(0)).unwrap();
         assert_eq!(e.stress, 0.0);
     }
@@ -931,13 +1055,16 @@ mod tests {
         }
         let k = 37;
         let d = sphere_matrix(k, 4);
-        let (packed, unit) = packed_upper(&d, k);
+        let t = UpperTriangle::new(&d, k).unwrap();
+        assert_eq!(UpperTriangle::from_square(d.clone(), k).unwrap(), t);
+        assert!(UpperTriangle::from_square(vec![0.0; 5], 2).is_err());
         let max = upper_max(&d, k);
-        assert!((0.5..1.0).contains(&(max / unit)), "{max} / {unit}");
-        assert_eq!(packed.len(), k * (k - 1) / 2);
+        assert!((0.5..1.0).contains(&(max / t.unit)), "{max} / {}", t.unit);
+        assert_eq!(t.max() * t.unit, max);
+        assert_eq!(t.values.len(), k * (k - 1) / 2);
         for i in 0..k {
             for j in i + 1..k {
-                assert_eq!(packed[row_start(i, k) + j - i - 1] * unit, d[i * k + j]);
+                assert_eq!(t.row(i)[j - i - 1] * t.unit, d[i * k + j]);
             }
         }
     }
@@ -982,7 +1109,9 @@ mod tests {
             })
             .collect();
         let mut hist = Vec::new();
-        let e = run_start(&d, k, &params, 0, |s| hist.push(s));
+        let e = run_start(&UpperTriangle::new(&d, k).unwrap(), &params, 0, |s| {
+            hist.push(s)
+        });
         assert!(
             (hist[0] - stress0).abs() <= 1e-9 * stress0,
             "{} vs {stress0}",
@@ -1062,7 +1191,7 @@ mod tests {
         };
         let best = smacof(&d, 40, &params).unwrap();
         let each: Vec<f64> = (0..6)
-            .map(|s| run_start(&d, 40, &params, s, |_| {}).stress)
+            .map(|s| run_start(&UpperTriangle::new(&d, 40).unwrap(), &params, s, |_| {}).stress)
             .collect();
         let min = each.iter().cloned().fold(f64::INFINITY, f64::min);
         assert_eq!(best.stress, min);
@@ -1133,7 +1262,7 @@ mod tests {
                 ..Default::default()
             };
             let mut hist = Vec::new();
-            run_start(&d, k, &params, start, |s| hist.push(s));
+            run_start(&UpperTriangle::new(&d, k).unwrap(), &params, start, |s| hist.push(s));
             for w in hist.windows(2) {
                 prop_assert!(w[1] <= w[0] * (1.0 + 1e-12) + 1e-15, "{} -> {}", w[0], w[1]);
             }

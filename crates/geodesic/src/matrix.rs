@@ -153,7 +153,8 @@ pub fn distance_matrix(
             })
         })
         .collect::<Result<_, GeodesicError>>()?;
-    Ok(assemble(solver, k, |i, j| (rows[i][j], rows[j][i])))
+    let rows = &rows;
+    Ok(assemble(solver, k, |i| move |j| (rows[i][j], rows[j][i])))
 }
 
 /// One workspace per thread of the current pool (a caller outside any pool runs on the global
@@ -176,14 +177,15 @@ fn with_workspace<T>(
     f(&mut ws)
 }
 
-/// Symmetrises `pair(i, j) = (r_ij, r_ji)` for i < j into a [`DistanceMatrix`] and fills the
-/// disconnected pairs (steps 2 and 3 of the module docs). The upper triangle is filled in
-/// parallel over rows (each entry depends on its pair alone, and the largest value and the
-/// count of disconnected pairs do not depend on the order they are combined in), then mirrored.
-fn assemble(
+/// Symmetrises `(r_ij, r_ji)` for i < j into a [`DistanceMatrix`] and fills the disconnected
+/// pairs (steps 2 and 3 of the module docs). `row(i)` gives the pairs of row i, asked for in
+/// increasing j. The upper triangle is filled in parallel over rows (each entry depends on its
+/// pair alone, and the largest value and the count of disconnected pairs do not depend on the
+/// order they are combined in), then mirrored.
+fn assemble<P: FnMut(usize) -> (f64, f64)>(
     solver: &GeodesicSolver,
     k: usize,
-    pair: impl Fn(usize, usize) -> (f64, f64) + Sync,
+    row_pairs: impl Fn(usize) -> P + Sync,
 ) -> DistanceMatrix {
     let mut data = vec![0.0; k * k];
     let mut disconnected = vec![false; k * k];
@@ -193,8 +195,9 @@ fn assemble(
         .enumerate()
         .map(|(i, (row, off))| {
             let (mut largest, mut pairs) = (0.0f64, 0usize);
+            let mut pair = row_pairs(i);
             for j in i + 1..k {
-                let (a, b) = pair(i, j);
+                let (a, b) = pair(j);
                 let d = if a.is_finite() && b.is_finite() {
                     0.5 * (a + b)
                 } else if a.is_finite() || b.is_finite() {
@@ -365,12 +368,24 @@ pub fn landmark_distance_matrix(
         .map(radius_of)
         .fold(0.0, f64::max);
 
-    // 2. the other sources: a front stopped at `radius`, or a full one where no landmark
-    //    reaches the source; `Short::complete` = the front covered the source's whole piece
+    // 2. the other sources: a front stopped at its radius, or a full one where no landmark
+    //    reaches the source; `Short::complete` = the front covered the source's whole piece.
+    //    Only the sources a front reached are kept, by index: a short front reaches a few
+    //    tens of them, and K rows of K values would be the stage's largest memory.
     struct Short {
-        row: Vec<f64>,
+        reached: Vec<(u32, f64)>,
         complete: bool,
     }
+    let reached = |ws: &Workspace| -> Vec<(u32, f64)> {
+        sources
+            .iter()
+            .enumerate()
+            .filter_map(|(j, &t)| {
+                let d = ws.distance(t);
+                d.is_finite().then_some((j as u32, d))
+            })
+            .collect()
+    };
     let others: Vec<usize> = (0..k).filter(|&i| slot[i] == usize::MAX).collect();
     let short: Vec<Short> = others
         .par_iter()
@@ -379,13 +394,17 @@ pub fn landmark_distance_matrix(
                 with_workspace(&workspaces, |ws| {
                     let complete = solver.solve_within(sources[i], radius_of(i), ws)?;
                     Ok(Short {
-                        row: sources.iter().map(|&t| ws.distance(t)).collect(),
+                        reached: reached(ws),
                         complete,
                     })
                 })
             } else {
+                let row = full_row(sources[i])?;
                 Ok(Short {
-                    row: full_row(sources[i])?,
+                    reached: (0..k as u32)
+                        .zip(row)
+                        .filter(|(_, d)| d.is_finite())
+                        .collect(),
                     complete: true,
                 })
             }
@@ -398,24 +417,55 @@ pub fn landmark_distance_matrix(
     let full_fronts = nl + others.iter().filter(|&&i| !nearest[i].is_finite()).count();
 
     // 3. r_ij: measured when i is a landmark or j lies within i's short front (or i's front
-    //    covered its piece); otherwise unknown (`None`)
-    let measured = |i: usize, j: usize| -> Option<f64> {
-        if slot[i] != usize::MAX {
-            return Some(landmark_rows[slot[i]][j]);
+    //    covered its piece); otherwise unknown (`None`). Row i reads its own front's sources
+    //    and the fronts that reached i (`columns[i]`), both in increasing j, with cursors.
+    let mut columns: Vec<Vec<(u32, f64)>> = vec![Vec::new(); k];
+    for &j in &others {
+        for &(t, d) in &short[row_of[j]].reached {
+            columns[t as usize].push((j as u32, d));
         }
-        let s = &short[row_of[i]];
-        let d = s.row[j];
-        (d.is_finite() || s.complete).then_some(d)
-    };
+    }
     let estimated = AtomicUsize::new(0);
-    let matrix = assemble(solver, k, |i, j| match (measured(i, j), measured(j, i)) {
-        (Some(a), Some(b)) => (a, b),
-        (Some(a), None) => (a, a),
-        (None, Some(b)) => (b, b),
-        (None, None) => {
-            estimated.fetch_add(1, Ordering::Relaxed);
-            let d = through_landmarks(&through[i], &through[j]);
-            (d, d)
+    let (short, columns, through) = (&short, &columns, &through);
+    let (slot, row_of, landmark_rows) = (&slot, &row_of, &landmark_rows);
+    let estimated_ref = &estimated;
+    let matrix = assemble(solver, k, |i| {
+        let (mut own_at, mut column_at) = (0usize, 0usize);
+        move |j: usize| {
+            let a = if slot[i] != usize::MAX {
+                Some(landmark_rows[slot[i]][j])
+            } else {
+                let s = &short[row_of[i]];
+                while own_at < s.reached.len() && (s.reached[own_at].0 as usize) < j {
+                    own_at += 1;
+                }
+                match s.reached.get(own_at) {
+                    Some(&(t, d)) if t as usize == j => Some(d),
+                    _ => s.complete.then_some(f64::INFINITY),
+                }
+            };
+            let b = if slot[j] != usize::MAX {
+                Some(landmark_rows[slot[j]][i])
+            } else {
+                let c = &columns[i];
+                while column_at < c.len() && (c[column_at].0 as usize) < j {
+                    column_at += 1;
+                }
+                match c.get(column_at) {
+                    Some(&(t, d)) if t as usize == j => Some(d),
+                    _ => short[row_of[j]].complete.then_some(f64::INFINITY),
+                }
+            };
+            match (a, b) {
+                (Some(a), Some(b)) => (a, b),
+                (Some(a), None) => (a, a),
+                (None, Some(b)) => (b, b),
+                (None, None) => {
+                    estimated_ref.fetch_add(1, Ordering::Relaxed);
+                    let d = through_landmarks(&through[i], &through[j]);
+                    (d, d)
+                }
+            }
         }
     });
     let stats = LandmarkStats {
