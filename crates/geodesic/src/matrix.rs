@@ -54,7 +54,6 @@
 //! ρ = 2h, the matrix differs from the one of K full fronts by 0.75 % on average
 //! (BENCHMARKS.md, section 2, *Landmark fronts and a classical start*, with its cost).
 
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Mutex, PoisonError};
 
 use keycomp_mesh::VertexId;
@@ -154,7 +153,7 @@ pub fn distance_matrix(
         })
         .collect::<Result<_, GeodesicError>>()?;
     let rows = &rows;
-    Ok(assemble(solver, k, |i| move |j| (rows[i][j], rows[j][i])))
+    Ok(assemble(solver, k, |i| move |j| (rows[i][j], rows[j][i], false)).0)
 }
 
 /// One workspace per thread of the current pool (a caller outside any pool runs on the global
@@ -179,25 +178,26 @@ fn with_workspace<T>(
 
 /// Symmetrises `(r_ij, r_ji)` for i < j into a [`DistanceMatrix`] and fills the disconnected
 /// pairs (steps 2 and 3 of the module docs). `row(i)` gives the pairs of row i, asked for in
-/// increasing j. The upper triangle is filled in parallel over rows (each entry depends on its
+/// increasing j, each with whether it was estimated (counted, and returned with the matrix). The upper triangle is filled in parallel over rows (each entry depends on its
 /// pair alone, and the largest value and the count of disconnected pairs do not depend on the
 /// order they are combined in), then mirrored.
-fn assemble<P: FnMut(usize) -> (f64, f64)>(
+fn assemble<P: FnMut(usize) -> (f64, f64, bool)>(
     solver: &GeodesicSolver,
     k: usize,
     row_pairs: impl Fn(usize) -> P + Sync,
-) -> DistanceMatrix {
+) -> (DistanceMatrix, usize) {
     let mut data = vec![0.0; k * k];
     let mut disconnected = vec![false; k * k];
-    let (largest, pairs) = data
+    let (largest, pairs, estimated) = data
         .par_chunks_mut(k.max(1))
         .zip(disconnected.par_chunks_mut(k.max(1)))
         .enumerate()
         .map(|(i, (row, off))| {
-            let (mut largest, mut pairs) = (0.0f64, 0usize);
+            let (mut largest, mut pairs, mut estimated) = (0.0f64, 0usize, 0usize);
             let mut pair = row_pairs(i);
             for j in i + 1..k {
-                let (a, b) = pair(j);
+                let (a, b, guessed) = pair(j);
+                estimated += usize::from(guessed);
                 let d = if a.is_finite() && b.is_finite() {
                     0.5 * (a + b)
                 } else if a.is_finite() || b.is_finite() {
@@ -212,9 +212,12 @@ fn assemble<P: FnMut(usize) -> (f64, f64)>(
                 largest = largest.max(d);
                 row[j] = d;
             }
-            (largest, pairs)
+            (largest, pairs, estimated)
         })
-        .reduce(|| (0.0, 0), |a, b| (a.0.max(b.0), a.1 + b.1));
+        .reduce(
+            || (0.0, 0, 0),
+            |a, b| (a.0.max(b.0), a.1 + b.1, a.2 + b.2),
+        );
     // mirror the upper triangle, in tiles so that both sides stay in cache
     const TILE: usize = 64;
     for bi in (0..k).step_by(TILE) {
@@ -242,13 +245,16 @@ fn assemble<P: FnMut(usize) -> (f64, f64)>(
             }
         }
     }
-    DistanceMatrix {
-        n: k,
-        data,
-        disconnected,
-        disconnected_pairs: pairs,
-        fill,
-    }
+    (
+        DistanceMatrix {
+            n: k,
+            data,
+            disconnected,
+            disconnected_pairs: pairs,
+            fill,
+        },
+        estimated,
+    )
 }
 
 /// Where the short fronts of [`landmark_distance_matrix`] stop (step 2 of *Landmark fronts* in
@@ -425,11 +431,9 @@ pub fn landmark_distance_matrix(
             columns[t as usize].push((j as u32, d));
         }
     }
-    let estimated = AtomicUsize::new(0);
     let (short, columns, through) = (&short, &columns, &through);
     let (slot, row_of, landmark_rows) = (&slot, &row_of, &landmark_rows);
-    let estimated_ref = &estimated;
-    let matrix = assemble(solver, k, |i| {
+    let (matrix, estimated) = assemble(solver, k, |i| {
         let (mut own_at, mut column_at) = (0usize, 0usize);
         move |j: usize| {
             let a = if slot[i] != usize::MAX {
@@ -457,13 +461,12 @@ pub fn landmark_distance_matrix(
                 }
             };
             match (a, b) {
-                (Some(a), Some(b)) => (a, b),
-                (Some(a), None) => (a, a),
-                (None, Some(b)) => (b, b),
+                (Some(a), Some(b)) => (a, b, false),
+                (Some(a), None) => (a, a, false),
+                (None, Some(b)) => (b, b, false),
                 (None, None) => {
-                    estimated_ref.fetch_add(1, Ordering::Relaxed);
                     let d = through_landmarks(&through[i], &through[j]);
-                    (d, d)
+                    (d, d, true)
                 }
             }
         }
@@ -473,7 +476,7 @@ pub fn landmark_distance_matrix(
         short_fronts: k - full_fronts,
         covering_radius,
         radius,
-        estimated_pairs: estimated.into_inner(),
+        estimated_pairs: estimated,
     };
     Ok((matrix, stats))
 }
