@@ -1,15 +1,17 @@
 //! Time of SMACOF (pipeline step 4) on real keypoint matrices and on great-circle matrices.
 //!
 //! For each mesh file: unit-area normalisation, Harris keypoints and the keypoint distance
-//! matrix exactly as `detect` does under `--preset` (default robust), then SMACOF with that
-//! preset's parameters, `--runs` times (default 5). Without a mesh: great-circle distances
+//! matrix exactly as `detect` does under `--preset` (default robust; its geodesic options
+//! included), then SMACOF with that preset's parameters (`--relaxation W` overriding its
+//! over-relaxation, e.g. 1 for the plain Guttman transform), `--runs` times (default 5). Without a mesh: great-circle distances
 //! between K random points of the unit sphere, K = 500, 1000 and 1400, one classical start.
 //! Printed per matrix: K, the winning start's transforms, the final stress, the median
 //! milliseconds of the whole call and per transform. Threads: the global rayon pool
 //! (`RAYON_NUM_THREADS=1` for one thread).
 //!
 //! ```text
-//! cargo bench -p keycomp-components --bench smacof -- [--runs 5] [--preset robust|kc1] [MESH...]
+//! cargo bench -p keycomp-components --bench smacof -- [--runs 5] [--preset robust|kc1] \
+//!     [--relaxation W] [MESH...]
 //! ```
 //!
 //! MESH paths are relative to the workspace root. When `cargo bench` did not run it, it prints
@@ -72,7 +74,7 @@ fn measure(name: &str, d: &[f64], k: usize, params: &SmacofParams, runs: usize) 
 fn main() -> Res<()> {
     let Some(args) = bench_args(
         "cargo bench -p keycomp-components --bench smacof -- [--runs 5] [--preset robust|kc1] \
-         [MESH...]",
+         [--relaxation W] [MESH...]",
     ) else {
         return Ok(());
     };
@@ -80,8 +82,10 @@ fn main() -> Res<()> {
     let mut runs = 5;
     let mut preset = Preset::Robust;
     let mut files = Vec::new();
+    let mut relaxation = None;
     while let Some(a) = args.next() {
         match a.as_str() {
+            "--relaxation" => relaxation = Some(args.next().ok_or("--relaxation W")?.parse()?),
             "--runs" => runs = args.next().ok_or("--runs N")?.parse()?,
             "--preset" => {
                 preset = match args.next().ok_or("--preset NAME")?.as_str() {
@@ -94,14 +98,16 @@ fn main() -> Res<()> {
         }
     }
     println!(
-        "SMACOF, {} threads, median of {runs} runs\n",
-        rayon::current_num_threads()
+        "SMACOF, {} threads, median of {runs} runs{}\n",
+        rayon::current_num_threads(),
+        relaxation.map_or(String::new(), |w| format!(", relaxation {w}"))
     );
     println!("| matrix | K | transforms | stress | ms | ms per transform |");
     println!("|---|---:|---:|---:|---:|---:|");
     if files.is_empty() {
         let params = SmacofParams {
             starts: 1,
+            relaxation: relaxation.unwrap_or(1.0),
             ..SmacofParams::default()
         };
         for k in [500, 1000, 1400] {
@@ -115,18 +121,17 @@ fn main() -> Res<()> {
         }
         return Ok(());
     }
-    let params = preset.component_params().smacof;
+    let mut params = preset.component_params().smacof;
+    if let Some(w) = relaxation {
+        params.relaxation = w;
+    }
     for f in files {
         let mesh = read_mesh(&workspace_path(&f))?.mesh;
         let (norm, _) = geometry::normalize_unit_area(&mesh);
         let topo = Topology::new(&norm);
         let harris = keycomp_harris::detect(&norm, &topo, &preset.harris_params())?;
-        let (dist, _, _) = keypoint_distances(
-            &norm,
-            &topo,
-            &harris.keypoints,
-            &keycomp_components::GeodesicOptions::default(),
-        )?;
+        let (dist, _, _) =
+            keypoint_distances(&norm, &topo, &harris.keypoints, &preset.geodesic_options())?;
         let k = harris.keypoints.len();
         let name = std::path::Path::new(&f)
             .file_name()

@@ -59,7 +59,8 @@
 //! configuration, so it takes the same value at `X` and at `2Γ(X) − X` and is lower at every
 //! point between them, and it bounds `σ` from above. The first transform stays plain, as it
 //! takes a random start most of the way in one step. On the robust preset's keypoint
-//! matrices ω = 1.5 stops after about 30 % fewer transforms (BENCHMARKS.md, *Detection*).
+//! matrices of nefertiti and KIDS, ω = 1.5 stops after 26–30 % fewer transforms at a slightly
+//! lower stress (BENCHMARKS.md, Detection, *Time*).
 //!
 //! References: I. Borg and P. J. F. Groenen, *Modern Multidimensional Scaling: Theory and
 //! Applications*, 2nd ed., Springer, 2005 (ch. 8); J. de Leeuw, "Applications of convex analysis
