@@ -214,10 +214,7 @@ fn assemble<P: FnMut(usize) -> (f64, f64, bool)>(
             }
             (largest, pairs, estimated)
         })
-        .reduce(
-            || (0.0, 0, 0),
-            |a, b| (a.0.max(b.0), a.1 + b.1, a.2 + b.2),
-        );
+        .reduce(|| (0.0, 0, 0), |a, b| (a.0.max(b.0), a.1 + b.1, a.2 + b.2));
     // mirror the upper triangle, in tiles so that both sides stay in cache
     const TILE: usize = 64;
     for bi in (0..k).step_by(TILE) {
