@@ -68,7 +68,8 @@ pub struct SpeedArgs {
     #[arg(long, value_name = "L")]
     pub landmarks: Option<usize>,
     /// Where the non-landmarks' short fronts stop, in covering radii (the largest distance
-    /// from a keypoint to its nearest landmark) [default: 2].
+    /// from a keypoint to its nearest landmark; under the robust preset, in the keypoint's own
+    /// distance to its nearest landmark, at least the 90th percentile of those) [default: 2].
     #[arg(long, value_name = "F")]
     pub landmark_radius: Option<f64>,
     /// The proxy's simplification runs in parallel in cells of at least this many vertices
