@@ -21,34 +21,9 @@ use std::time::Instant;
 
 use keycomp_components::{Preset, SmacofParams, keypoint_distances, smacof};
 use keycomp_mesh::{Topology, geometry, read_mesh};
-use keycomp_test_support::{bench_args, median, workspace_path};
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
+use keycomp_test_support::{bench_args, great_circle_matrix, median, workspace_path};
 
 type Res<T> = Result<T, Box<dyn std::error::Error>>;
-
-/// Great-circle distances between `k` random points of the unit sphere (seed `seed`).
-fn sphere_matrix(k: usize, seed: u64) -> Vec<f64> {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let mut pts = Vec::with_capacity(k);
-    while pts.len() < k {
-        let v: [f64; 3] = std::array::from_fn(|_| rng.random::<f64>() * 2.0 - 1.0);
-        let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-        if n > 0.1 && n <= 1.0 {
-            pts.push(v.map(|c| c / n));
-        }
-    }
-    let mut d = vec![0.0; k * k];
-    for i in 0..k {
-        for j in 0..k {
-            if i != j {
-                let c: f64 = (0..3).map(|t| pts[i][t] * pts[j][t]).sum();
-                d[i * k + j] = c.clamp(-1.0, 1.0).acos();
-            }
-        }
-    }
-    d
-}
 
 /// Runs SMACOF `runs` times on the matrix and prints one table row.
 fn measure(name: &str, d: &[f64], k: usize, params: &SmacofParams, runs: usize) -> Res<()> {
@@ -113,7 +88,7 @@ fn main() -> Res<()> {
         for k in [500, 1000, 1400] {
             measure(
                 &format!("sphere {k}"),
-                &sphere_matrix(k, 1),
+                &great_circle_matrix(k, 1),
                 k,
                 &params,
                 runs,

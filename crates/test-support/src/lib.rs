@@ -9,15 +9,19 @@
 //! - [`edge_path_distances`]: shortest edge-path lengths on a triangle mesh (Dijkstra), the
 //!   oracle that geodesic distances are bounded by and compared against.
 //! - [`median`]: the median of measurements.
+//! - [`great_circle_matrix`]: great-circle distances between random points of the sphere, a
+//!   distance matrix to embed.
 //! - [`bench_args`]: a measurement harness's command line under `cargo bench`, or `None` (after
 //!   a hint) when `cargo test --benches` or `--all-targets` runs it.
 
 mod bench;
 mod data;
 mod dijkstra;
+mod sphere;
 mod stats;
 
 pub use bench::bench_args;
 pub use data::{SHARED_DATA, shared_data, workspace_path, workspace_root};
 pub use dijkstra::edge_path_distances;
+pub use sphere::great_circle_matrix;
 pub use stats::median;
