@@ -389,11 +389,10 @@ pub fn detect(mesh: &Mesh, params: &DetectParams) -> Result<Detection, DetectErr
     let t_geodesic = ms(t);
 
     let t = Instant::now();
-    let k = harris.keypoints.len();
-    // SMACOF reads the packed upper triangle; the square matrix goes first (its memory is the
-    // largest of detection's on meshes with thousands of keypoints)
+    // SMACOF reads the upper triangle, packed in the square matrix's own memory (the largest of
+    // detection's on meshes with thousands of keypoints)
     let disconnected_pairs = dist.disconnected_pairs();
-    let upper = UpperTriangle::from_square(dist.into_vec(), k)?;
+    let upper = UpperTriangle::from_distances(dist);
     let embedding = smacof_upper(&upper, &params.components.smacof)?;
     drop(upper);
     let t_mds = ms(t);

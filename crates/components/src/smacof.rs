@@ -67,6 +67,7 @@
 //! to multidimensional scaling", in *Recent Developments in Statistics*, North-Holland, 1977,
 //! pp. 133–145.
 
+use keycomp_geodesic::DistanceMatrix;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
@@ -241,6 +242,8 @@ pub struct UpperTriangle {
     k: usize,
     values: Vec<f64>,
     unit: f64,
+    /// The largest value of `values`.
+    max: f64,
 }
 
 impl UpperTriangle {
@@ -248,7 +251,8 @@ impl UpperTriangle {
     /// [`smacof`]'s for the matrix.
     pub fn new(distances: &[f64], k: usize) -> Result<UpperTriangle, ComponentsError> {
         check_matrix(distances, k)?;
-        let unit = scale_unit(upper_max(distances, k));
+        let max = upper_max(distances, k);
+        let unit = scale_unit(max);
         let mut values = Vec::with_capacity(k * k.saturating_sub(1) / 2);
         for i in 0..k {
             values.extend(
@@ -257,32 +261,48 @@ impl UpperTriangle {
                     .map(|d| d / unit),
             );
         }
-        Ok(UpperTriangle { k, values, unit })
+        Ok(UpperTriangle {
+            k,
+            values,
+            unit,
+            max: max / unit,
+        })
     }
 
     /// [`UpperTriangle::new`], packed in the square matrix's own memory (no second copy).
-    pub fn from_square(
-        mut distances: Vec<f64>,
-        k: usize,
-    ) -> Result<UpperTriangle, ComponentsError> {
+    pub fn from_square(distances: Vec<f64>, k: usize) -> Result<UpperTriangle, ComponentsError> {
         check_matrix(&distances, k)?;
+        Ok(Self::pack_in_place(distances, k))
+    }
+
+    /// A geodesic distance matrix packed in its own memory. Its type already guarantees what
+    /// [`UpperTriangle::from_square`] checks (symmetric, finite, non-negative), so the matrix is
+    /// not read a third time for it.
+    pub fn from_distances(distances: DistanceMatrix) -> UpperTriangle {
+        let k = distances.len();
+        Self::pack_in_place(distances.into_vec(), k)
+    }
+
+    /// Moves row i's entries `j > i` to [`row_start`]`(i, k)` (never past their place in the
+    /// square, so rows move in order) and scales them as they move.
+    fn pack_in_place(mut distances: Vec<f64>, k: usize) -> UpperTriangle {
         let max = upper_max(&distances, k);
         let unit = scale_unit(max);
-        // rows move left (row i's start never passes its place in the square), in order
         let mut at = 0;
         for i in 0..k {
             let m = k - i - 1;
             distances.copy_within(i * k + i + 1..(i + 1) * k, at);
+            distances[at..at + m].iter_mut().for_each(|d| *d /= unit);
             at += m;
         }
         distances.truncate(at);
         distances.shrink_to_fit();
-        distances.iter_mut().for_each(|d| *d /= unit);
-        Ok(UpperTriangle {
+        UpperTriangle {
             k,
             values: distances,
             unit,
-        })
+            max: max / unit,
+        }
     }
 
     /// Number of points K.
@@ -298,11 +318,6 @@ impl UpperTriangle {
     /// Row `i`'s scaled distances to the points `j > i`.
     fn row(&self, i: usize) -> &[f64] {
         &self.values[row_start(i, self.k)..][..self.k - i - 1]
-    }
-
-    /// The largest scaled distance.
-    fn max(&self) -> f64 {
-        self.values.iter().copied().fold(0.0, f64::max)
     }
 }
 
@@ -421,7 +436,7 @@ fn run_start(
     let mut rng = ChaCha8Rng::seed_from_u64(params.seed);
     rng.set_stream(start);
     let (k, unit) = (delta.k, delta.unit);
-    let scale = delta.max();
+    let scale = delta.max;
     let mut w = Work {
         x: Vec::with_capacity(k),
         y: Vec::with_capacity(k),
@@ -855,6 +870,7 @@ fn classical(delta: &UpperTriangle, blocks: &mut [Block]) -> Option<(Vec<f64>, V
 #[cfg(test)]
 mod tests {
     use super::*;
+    use keycomp_test_support::great_circle_matrix as sphere_matrix;
     use proptest::prelude::*;
     use rand::Rng;
 
@@ -871,37 +887,6 @@ mod tests {
         for i in 0..k {
             for j in 0..k {
                 d[i * k + j] = ((p[i][0] - p[j][0]).powi(2) + (p[i][1] - p[j][1]).powi(2)).sqrt();
-            }
-        }
-        d
-    }
-
-    /// Points on a unit sphere and their great-circle distances: a geodesic-like matrix that is
-    /// not exactly embeddable in the plane.
-    pub(crate) fn sphere_matrix(k: usize, seed: u64) -> Vec<f64> {
-        let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let pts: Vec<[f64; 3]> = (0..k)
-            .map(|_| {
-                loop {
-                    let v = [
-                        rng.random::<f64>() * 2.0 - 1.0,
-                        rng.random::<f64>() * 2.0 - 1.0,
-                        rng.random::<f64>() * 2.0 - 1.0,
-                    ];
-                    let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-                    if n > 0.1 && n <= 1.0 {
-                        break [v[0] / n, v[1] / n, v[2] / n];
-                    }
-                }
-            })
-            .collect();
-        let mut d = vec![0.0; k * k];
-        for i in 0..k {
-            for j in 0..k {
-                if i != j {
-                    let c = pts[i][0] * pts[j][0] + pts[i][1] * pts[j][1] + pts[i][2] * pts[j][2];
-                    d[i * k + j] = c.clamp(-1.0, 1.0).acos();
-                }
             }
         }
         d
@@ -1061,7 +1046,7 @@ mod tests {
         assert!(UpperTriangle::from_square(vec![0.0; 5], 2).is_err());
         let max = upper_max(&d, k);
         assert!((0.5..1.0).contains(&(max / t.unit)), "{max} / {}", t.unit);
-        assert_eq!(t.max() * t.unit, max);
+        assert_eq!(t.max * t.unit, max);
         assert_eq!(t.values.len(), k * (k - 1) / 2);
         for i in 0..k {
             for j in i + 1..k {
