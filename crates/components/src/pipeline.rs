@@ -68,10 +68,10 @@
 //! (BENCHMARKS.md, *Detection* and *Repeatability*). `--landmarks 0 --smacof-starts 4
 //! --smacof-init random --geodesic-vertices 0` is the paper's method. The robust preset
 //! measures each short front in its own keypoint's distance to the nearest landmark instead
-//! ([`GeodesicOptions::local_landmark_radius`]): the covering radius is set by the one
-//! keypoint farthest from every landmark, and on a body with folded limbs (KIDS) it made every
-//! short front several times longer than most keypoints need (the time saved and the
-//! repeatability are in BENCHMARKS.md, *Detection*).
+//! ([`GeodesicOptions::local_landmark_radius`]): the covering radius is the largest of those
+//! distances, so the few keypoints farthest from every landmark set the reach of every short
+//! front (the time and the repeatability are in BENCHMARKS.md, *Detection* and
+//! *Repeatability*).
 
 use std::time::Instant;
 

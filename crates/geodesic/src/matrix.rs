@@ -337,30 +337,23 @@ pub fn landmark_distance_matrix(
         .copied()
         .filter(|d| d.is_finite())
         .fold(0.0, f64::max);
-    let (factor, local) = match short {
-        ShortRadius::Covering(f) => (f, false),
-        ShortRadius::Local(f) => (f, true),
-    };
-    let factor = if factor > 0.0 && factor.is_finite() {
-        factor
-    } else {
-        f64::INFINITY
-    };
-    let floor = if local {
-        let mut reached: Vec<f64> = nearest.iter().copied().filter(|d| d.is_finite()).collect();
-        reached.sort_unstable_by(f64::total_cmp);
-        reached.get(reached.len() * 9 / 10).copied().unwrap_or(0.0)
-    } else {
-        covering_radius
+    // each short front's reach before the factor: the covering radius, or the source's own
+    // distance to its nearest landmark, at least the 90th percentile of those distances
+    let (factor, floor) = match short {
+        ShortRadius::Covering(f) => (f, None),
+        ShortRadius::Local(f) => {
+            let mut reached: Vec<f64> = nearest.iter().copied().filter(|d| d.is_finite()).collect();
+            reached.sort_unstable_by(f64::total_cmp);
+            (
+                f,
+                Some(reached.get(reached.len() * 9 / 10).copied().unwrap_or(0.0)),
+            )
+        }
     };
     let radius_of = |i: usize| {
-        let reach = if local {
-            nearest[i].max(floor)
-        } else {
-            covering_radius
-        };
-        // ∞ · 0 is NaN: a front with no finite bound runs in full
-        if factor.is_finite() {
+        let reach = floor.map_or(covering_radius, |f| nearest[i].max(f));
+        // not a positive number: every front runs in full (and ∞ · 0 would be NaN)
+        if factor > 0.0 && factor.is_finite() {
             factor * reach
         } else {
             f64::INFINITY
