@@ -30,8 +30,9 @@ mod topology;
 pub use error::{ErrorKind, Location, MeshError};
 pub use grid::triangulate_grid;
 pub use io::{
-    Format, Geometry, LoadedInput, LoadedMesh, Source, read_input, read_input_from_bytes,
-    read_mesh, read_mesh_from_bytes, write_glb, write_off, write_off_to, write_ply_colored,
+    Format, Geometry, LoadedInput, LoadedMesh, Source, glb_bytes, read_input,
+    read_input_from_bytes, read_mesh, read_mesh_from_bytes, write_glb, write_off, write_off_to,
+    write_ply_colored,
 };
 pub use nalgebra::{Point3, Vector3};
 pub use topology::Topology;

@@ -602,6 +602,33 @@ mod tests {
         }
     }
 
+    /// With colours, the GLB passes the `gltf` crate's validation, its primitive has a
+    /// `COLOR_0` of one normalised RGBA byte quadruple per vertex holding the colours, and the
+    /// reader still reads the mesh back.
+    #[test]
+    fn colored_glb_is_valid_gltf() {
+        let m = synth::torus(1.0, 0.3, 12, 8);
+        let colors: Vec<[u8; 3]> = (0..m.num_vertices())
+            .map(|i| [i as u8, (2 * i) as u8, 7])
+            .collect();
+        let bytes = crate::glb_bytes(&m, Some(&colors));
+        let doc = gltf::Gltf::from_slice(&bytes).unwrap();
+        let prim = doc.meshes().next().unwrap().primitives().next().unwrap();
+        let acc = prim.get(&gltf::Semantic::Colors(0)).unwrap();
+        assert_eq!(acc.count(), m.num_vertices());
+        assert!(acc.normalized());
+        assert_eq!(acc.dimensions(), gltf::accessor::Dimensions::Vec4);
+        let view = acc.view().unwrap();
+        let blob = doc.blob.as_deref().unwrap();
+        let at = view.offset() + 4 * 5;
+        assert_eq!(&blob[at..at + 4], &[5, 10, 7, 255]);
+        let back = read_mesh_from_bytes(&bytes, Format::Gltf).unwrap().mesh;
+        assert_eq!(back.faces, m.faces);
+        // colours of the wrong length are left out
+        let plain = crate::glb_bytes(&m, Some(&colors[1..]));
+        assert_eq!(plain, crate::glb_bytes(&m, None));
+    }
+
     /// An attribute naming an accessor the file does not have is an error (the `gltf`
     /// crate's own validation would index out of bounds on it; found by fuzzing).
     #[test]

@@ -49,7 +49,7 @@ use std::path::Path;
 use crate::grid::triangulate_grid;
 use crate::{ErrorKind, Location, Mesh, MeshError, Point3, PointCloud, Repairs, Vector3, VertexId};
 
-pub use write::{write_glb, write_off, write_off_to, write_ply_colored};
+pub use write::{glb_bytes, write_glb, write_off, write_off_to, write_ply_colored};
 
 /// A supported file format.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

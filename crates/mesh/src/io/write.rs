@@ -82,12 +82,15 @@ pub fn write_ply_colored(mesh: &Mesh, colors: &[[u8; 3]], path: &Path) -> Result
 /// `f64`), indices as 32-bit integers, vertex ids kept. Written atomically (see the module
 /// documentation).
 pub fn write_glb(mesh: &Mesh, path: &Path) -> Result<(), MeshError> {
-    write_atomically(path, |w| w.write_all(&glb_bytes(mesh)))
+    write_atomically(path, |w| w.write_all(&glb_bytes(mesh, None)))
 }
 
-/// The bytes of [`write_glb`]'s file.
-fn glb_bytes(mesh: &Mesh) -> Vec<u8> {
-    let mut bin = Vec::with_capacity(12 * mesh.positions.len() + 12 * mesh.faces.len());
+/// The bytes of [`write_glb`]'s file, with `colors` (one per vertex, sRGB) as the primitive's
+/// `COLOR_0` (normalised unsigned bytes, RGBA with A = 255, 4-byte aligned as glTF asks of
+/// vertex attributes). Colours of another length than the vertices are left out.
+pub fn glb_bytes(mesh: &Mesh, colors: Option<&[[u8; 3]]>) -> Vec<u8> {
+    let colors = colors.filter(|c| c.len() == mesh.positions.len());
+    let mut bin = Vec::with_capacity(16 * mesh.positions.len() + 12 * mesh.faces.len());
     let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
     for p in &mesh.positions {
         let c = [p.x as f32, p.y as f32, p.z as f32];
@@ -103,19 +106,42 @@ fn glb_bytes(mesh: &Mesh) -> Vec<u8> {
             bin.extend_from_slice(&v.to_le_bytes());
         }
     }
+    let indices_len = bin.len() - positions_len;
+    let (color_attribute, color_view, color_accessor) = match colors {
+        Some(colors) => {
+            let offset = bin.len();
+            for c in colors {
+                bin.extend_from_slice(&[c[0], c[1], c[2], 255]);
+            }
+            (
+                r#","COLOR_0":2"#.to_string(),
+                format!(
+                    r#",{{"buffer":0,"byteOffset":{offset},"byteLength":{},"target":34962}}"#,
+                    bin.len() - offset
+                ),
+                format!(
+                    r#",{{"bufferView":2,"componentType":5121,"normalized":true,"count":{},"type":"VEC4"}}"#,
+                    colors.len()
+                ),
+            )
+        }
+        None => Default::default(),
+    };
     let json = format!(
         concat!(
             r#"{{"asset":{{"version":"2.0","generator":"keycomp"}},"scene":0,"scenes":[{{"nodes":[0]}}],"#,
-            r#""nodes":[{{"mesh":0}}],"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":1,"mode":4}}]}}],"#,
+            r#""nodes":[{{"mesh":0}}],"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0{}}},"indices":1,"mode":4}}]}}],"#,
             r#""buffers":[{{"byteLength":{}}}],"bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":{},"target":34962}},"#,
-            r#"{{"buffer":0,"byteOffset":{},"byteLength":{},"target":34963}}],"#,
+            r#"{{"buffer":0,"byteOffset":{},"byteLength":{},"target":34963}}{}],"#,
             r#""accessors":[{{"bufferView":0,"componentType":5126,"count":{},"type":"VEC3","min":[{:?},{:?},{:?}],"max":[{:?},{:?},{:?}]}},"#,
-            r#"{{"bufferView":1,"componentType":5125,"count":{},"type":"SCALAR"}}]}}"#
+            r#"{{"bufferView":1,"componentType":5125,"count":{},"type":"SCALAR"}}{}]}}"#
         ),
+        color_attribute,
         bin.len(),
         positions_len,
         positions_len,
-        bin.len() - positions_len,
+        indices_len,
+        color_view,
         mesh.positions.len(),
         lo[0],
         lo[1],
@@ -124,6 +150,7 @@ fn glb_bytes(mesh: &Mesh) -> Vec<u8> {
         hi[1],
         hi[2],
         3 * mesh.faces.len(),
+        color_accessor,
     );
     glb_container(json.as_bytes(), &bin)
 }
