@@ -16,11 +16,14 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
+use keycomp_describe::DIM;
 use keycomp_geodesic::GeodesicSolver;
 use keycomp_index::ContentHash;
-use keycomp_mesh::{Mesh, Point3, Topology, Vector3, VertexId, read_mesh};
+use keycomp_index::ShapeRecord;
+use keycomp_mesh::{Mesh, MeshError, Point3, Topology, Vector3, VertexId, read_input, read_mesh};
 use keycomp_render::{RenderParams, render};
 use keycomp_retrieval::Ranked;
+use keycomp_surface::SurfaceParams;
 
 use crate::colors;
 use crate::output;
@@ -173,32 +176,70 @@ pub fn principal_pose(mesh: &Mesh) -> Mesh {
     }
 }
 
-/// Why a result has no picture, or its mesh.
-enum ResultMesh {
-    Ok(Mesh, GeodesicSolver),
-    Unavailable(String),
-}
-
-fn load_result(path: &Path, expected: ContentHash) -> ResultMesh {
+/// The mesh an indexed shape was analysed on, read from `path` (its indexed path): the file,
+/// or its canonical surface of `surface` when the index's profile has one (the vertex ids of
+/// its parts' centres are that mesh's), with a geodesic solver on it. Why not, when the file
+/// is gone, unreadable or changed since it was indexed (its content hash is not `expected`).
+pub(crate) fn load_indexed(
+    path: &Path,
+    expected: ContentHash,
+    surface: Option<&SurfaceParams>,
+) -> Result<(Mesh, GeodesicSolver), String> {
     match ContentHash::of_file(path) {
-        Err(_) if !path.exists() => ResultMesh::Unavailable("the file is gone".into()),
-        Err(e) => ResultMesh::Unavailable(format!("the file cannot be read: {e}")),
-        Ok(h) if h != expected => {
-            ResultMesh::Unavailable("the file has changed since it was indexed".into())
-        }
-        Ok(_) => match read_mesh(path) {
-            Ok(l) => match GeodesicSolver::new(&l.mesh, &Topology::new(&l.mesh)) {
-                Ok(solver) => ResultMesh::Ok(l.mesh, solver),
-                Err(e) => ResultMesh::Unavailable(format!("the mesh cannot be measured: {e}")),
-            },
-            Err(e) => ResultMesh::Unavailable(format!("the file cannot be read: {e}")),
-        },
+        Err(_) if !path.exists() => return Err("the file is gone".into()),
+        Err(e) => return Err(format!("the file cannot be read: {e}")),
+        Ok(h) if h != expected => return Err("the file has changed since it was indexed".into()),
+        Ok(_) => {}
     }
+    let unreadable = |e: MeshError| format!("the file cannot be read: {e}");
+    let mesh = match surface {
+        None => read_mesh(path).map_err(unreadable)?.mesh,
+        Some(params) => {
+            let input = read_input(path).map_err(unreadable)?;
+            keycomp::analysis::canonical_surface(&input.geometry, params)
+                .map_err(|e| format!("its canonical surface cannot be made: {e}"))?
+                .mesh
+        }
+    };
+    let solver = GeodesicSolver::new(&mesh, &Topology::new(&mesh))
+        .map_err(|e| format!("the mesh cannot be measured: {e}"))?;
+    Ok((mesh, solver))
 }
 
-/// Renders `mesh` in its [`principal_pose`], seen from the front, a little from the right and
-/// above.
-fn png(mesh: &Mesh, cols: &[[u8; 3]], size: u32, path: &Path) -> Result<()> {
+/// The canonical surface the index's shapes were analysed on (its profile's), if any.
+pub(crate) fn index_surface(reader: &Reader) -> Option<SurfaceParams> {
+    serde_json::from_str::<keycomp::Profile>(reader.profile())
+        .ok()
+        .and_then(|p| p.surface)
+}
+
+/// Per-vertex colours of an indexed shape's `mesh` (with its `solver`): `base` everywhere,
+/// then each `(part, colour)` of `paint` in order, painted as the region of the part's indexed
+/// area around its indexed centre ([`region_of_area`]); parts the record does not have, or
+/// whose centre is not a vertex of `mesh`, are skipped.
+pub(crate) fn paint_parts(
+    mesh: &Mesh,
+    solver: &GeodesicSolver,
+    record: &ShapeRecord<DIM>,
+    paint: &[(usize, [u8; 3])],
+    base: [u8; 3],
+) -> Vec<[u8; 3]> {
+    let mut cols = vec![base; mesh.num_vertices()];
+    for &(part, col) in paint {
+        if let Some(c) = record.components.get(part)
+            && (c.centre_vertex as usize) < mesh.num_vertices()
+        {
+            for v in region_of_area(mesh, solver, c.centre_vertex, c.area_fraction as f64) {
+                cols[v as usize] = col;
+            }
+        }
+    }
+    cols
+}
+
+/// A PNG of `mesh` in its [`principal_pose`], seen from the front, a little from the right
+/// and above, `size` pixels square.
+pub(crate) fn picture(mesh: &Mesh, cols: &[[u8; 3]], size: u32) -> Result<Vec<u8>> {
     let rp = RenderParams {
         size,
         azimuth_deg: 20.0,
@@ -206,7 +247,12 @@ fn png(mesh: &Mesh, cols: &[[u8; 3]], size: u32, path: &Path) -> Result<()> {
         ..RenderParams::default()
     };
     let image = render(&principal_pose(mesh), cols, &rp).context("rendering failed")?;
-    let bytes = image.to_png_bytes().context("PNG encoding failed")?;
+    image.to_png_bytes().context("PNG encoding failed")
+}
+
+/// Writes [`picture`] to `path`.
+fn png(mesh: &Mesh, cols: &[[u8; 3]], size: u32, path: &Path) -> Result<()> {
+    let bytes = picture(mesh, cols, size)?;
     std::fs::write(path, bytes).with_context(|| format!("{}: cannot write", path.display()))?;
     Ok(())
 }
@@ -250,7 +296,8 @@ pub fn write_report(
 }
 
 fn build(out: &Path, reader: &Reader, entries: &[QueryEntry], params: &ReportParams) -> Result<()> {
-    let mut cache: HashMap<PathBuf, ResultMesh> = HashMap::new();
+    let surface = index_surface(reader);
+    let mut cache: HashMap<PathBuf, Result<(Mesh, GeodesicSolver), String>> = HashMap::new();
     let mut h = String::new();
     writeln!(
         h,
@@ -313,29 +360,21 @@ fn build(out: &Path, reader: &Reader, entries: &[QueryEntry], params: &ReportPar
             let src = rec.canonical_path.clone();
             let loaded = cache
                 .entry(src.clone())
-                .or_insert_with(|| load_result(&src, rec.content_hash));
+                .or_insert_with(|| load_indexed(&src, rec.content_hash, surface.as_ref()));
             let picture = match loaded {
-                ResultMesh::Ok(mesh, solver) => {
-                    let mut cols = vec![colors::GREY; mesh.num_vertices()];
-                    let mut paint = |comp: usize, col: [u8; 3]| {
-                        if let Some(c) = rec.components.get(comp)
-                            && (c.centre_vertex as usize) < mesh.num_vertices()
-                        {
-                            let area = c.area_fraction as f64;
-                            for v in region_of_area(mesh, solver, c.centre_vertex, area) {
-                                cols[v as usize] = col;
-                            }
-                        }
-                    };
+                Ok((mesh, solver)) => {
                     let matched: Vec<usize> = r.result.matches.iter().map(|m| m.target).collect();
-                    for comp in 0..rec.components.len() {
-                        if !matched.contains(&comp) {
-                            paint(comp, UNMATCHED);
-                        }
-                    }
-                    for m in &r.result.matches {
-                        paint(m.target, colors::distinct(m.query));
-                    }
+                    let paint: Vec<(usize, [u8; 3])> = (0..rec.components.len())
+                        .filter(|c| !matched.contains(c))
+                        .map(|c| (c, UNMATCHED))
+                        .chain(
+                            r.result
+                                .matches
+                                .iter()
+                                .map(|m| (m.target, colors::distinct(m.query))),
+                        )
+                        .collect();
+                    let cols = paint_parts(mesh, solver, &rec, &paint, colors::GREY);
                     let img = format!("q{:02}-r{:02}.png", qi + 1, ri + 1);
                     png(mesh, &cols, params.result_size, &out.join(&img))?;
                     format!(
@@ -344,7 +383,7 @@ fn build(out: &Path, reader: &Reader, entries: &[QueryEntry], params: &ReportPar
                         s = params.result_size
                     )
                 }
-                ResultMesh::Unavailable(why) => {
+                Err(why) => {
                     format!("<div class=\"missing\">no picture: {}</div>", escape(why))
                 }
             };
