@@ -4,47 +4,16 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::path::Path;
 
-use common::{keycomp, s, stderr, stdout};
+use common::{chromium, headless, keycomp, s, stderr, stdout};
 use keycomp_shapes::{Class, GenerateParams, generate};
-
-/// A Chromium binary: `$KEYCOMP_CHROMIUM`, else `chromium` or `chromium-browser` on the usual
-/// paths.
-fn chromium() -> Option<PathBuf> {
-    if let Some(p) = std::env::var_os("KEYCOMP_CHROMIUM") {
-        return Some(PathBuf::from(p));
-    }
-    [
-        "/usr/bin/chromium",
-        "/usr/bin/chromium-browser",
-        "/snap/bin/chromium",
-    ]
-    .iter()
-    .map(PathBuf::from)
-    .find(|p| p.is_file())
-}
 
 /// Loads `page` in headless Chromium and returns the DOM after the load event.
 fn dump_dom(browser: &Path, page: &Path, profile: &Path) -> String {
     let url = format!("file://{}", page.display());
-    let out = Command::new(browser)
-        .args([
-            "--headless",
-            "--no-sandbox",
-            "--disable-gpu",
-            "--disable-quic",
-            "--no-first-run",
-            "--disable-background-networking",
-            "--disable-component-update",
-            "--disable-sync",
-            "--allow-file-access-from-files",
-            &format!("--user-data-dir={}", profile.display()),
-            "--virtual-time-budget=10000",
-            "--dump-dom",
-            &url,
-        ])
+    let out = headless(browser, profile)
+        .args(["--allow-file-access-from-files", "--dump-dom", &url])
         .output()
         .expect("chromium runs");
     assert!(

@@ -3,7 +3,7 @@
 
 #![allow(dead_code)] // each test file uses a different subset
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 /// Runs the `keycomp` binary built for these tests.
@@ -27,4 +27,39 @@ pub fn stderr(o: &Output) -> String {
 /// A path as a `&str` argument.
 pub fn s(p: &Path) -> &str {
     p.to_str().expect("utf8 path")
+}
+
+/// A Chromium binary: `$KEYCOMP_CHROMIUM`, else `chromium` or `chromium-browser` on the usual
+/// paths.
+pub fn chromium() -> Option<PathBuf> {
+    if let Some(p) = std::env::var_os("KEYCOMP_CHROMIUM") {
+        return Some(PathBuf::from(p));
+    }
+    [
+        "/usr/bin/chromium",
+        "/usr/bin/chromium-browser",
+        "/snap/bin/chromium",
+    ]
+    .iter()
+    .map(PathBuf::from)
+    .find(|p| p.is_file())
+}
+
+/// Headless `browser` with a fresh profile in `profile` and no background traffic; the caller
+/// adds what to do (`--dump-dom URL`, `--screenshot=FILE URL`, …).
+pub fn headless(browser: &Path, profile: &Path) -> Command {
+    let mut cmd = Command::new(browser);
+    cmd.args([
+        "--headless",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--disable-quic",
+        "--no-first-run",
+        "--disable-background-networking",
+        "--disable-component-update",
+        "--disable-sync",
+        "--virtual-time-budget=10000",
+    ])
+    .arg(format!("--user-data-dir={}", profile.display()));
+    cmd
 }

@@ -12,8 +12,11 @@ mod commands;
 mod output;
 mod progress;
 mod report;
+mod serve;
 
-use commands::{demo, detect, index, keypoints, r#match, query, render, surface, transform};
+use commands::{
+    demo, detect, index, keypoints, r#match, query, render, serve as serve_cmd, surface, transform,
+};
 
 use std::process::ExitCode;
 
@@ -51,6 +54,10 @@ enum Command {
     /// Rank the indexed shapes against a query mesh (whole shape or fragment).
     #[command(after_help = query::EXAMPLES)]
     Query(query::Args),
+    /// A local web app and HTTP JSON API over an index: browse the collection, search by
+    /// example (drop a mesh, scan or point cloud), see matched parts in 3D.
+    #[command(after_help = serve_cmd::EXAMPLES)]
+    Serve(serve_cmd::Args),
     /// Render a shaded PNG of a mesh, with key-components, response or keypoints coloured.
     #[command(after_help = render::EXAMPLES)]
     Render(render::Args),
@@ -98,6 +105,7 @@ fn main() -> ExitCode {
         Command::Index(cmd) => index::run(cmd),
         Command::Query(args) => query::run(args),
         Command::Render(args) => render::run(args),
+        Command::Serve(args) => serve_cmd::run(args),
         Command::Surface(args) => surface::run(args),
         Command::Bench(cmd) => bench::run(cmd),
     };

@@ -7,5 +7,6 @@ pub mod keypoints;
 pub mod r#match;
 pub mod query;
 pub mod render;
+pub mod serve;
 pub mod surface;
 pub mod transform;

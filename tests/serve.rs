@@ -1,0 +1,344 @@
+//! End-to-end tests of `keycomp serve` through a real HTTP client (ureq): a small collection
+//! generated in code is indexed and served; the shape API, GLB and thumbnails, a query by
+//! upload, hostile uploads, and an `index add` while the server runs.
+
+mod common;
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+
+use common::{chromium, headless, keycomp, s, stderr};
+use keycomp_shapes::{Class, GenerateParams, generate};
+use rand::SeedableRng;
+use serde_json::Value;
+
+/// A running `keycomp serve`, stopped when dropped.
+struct Server {
+    child: Child,
+    base: String,
+}
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// Starts `keycomp serve` on a free port of 127.0.0.1 and waits for its address line.
+fn serve(index: &Path, extra: &[&str]) -> Server {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_keycomp"))
+        .args(["serve", "--index", s(index), "--addr", "127.0.0.1:0"])
+        .args(extra)
+        .stderr(Stdio::piped())
+        .stdout(Stdio::null())
+        .spawn()
+        .expect("keycomp serve starts");
+    let mut line = String::new();
+    BufReader::new(child.stderr.take().expect("stderr"))
+        .read_line(&mut line)
+        .expect("reads the address line");
+    let base = line
+        .split("http://")
+        .nth(1)
+        .and_then(|t| t.split('/').next())
+        .map(|a| format!("http://{a}"))
+        .unwrap_or_else(|| panic!("no address in {line:?}"));
+    Server { child, base }
+}
+
+fn agent() -> ureq::Agent {
+    ureq::Agent::config_builder()
+        .http_status_as_error(false)
+        .build()
+        .into()
+}
+
+/// GET `path`: status and body bytes.
+fn get(server: &Server, path: &str) -> (u16, Vec<u8>) {
+    let mut r = agent()
+        .get(&format!("{}{path}", server.base))
+        .call()
+        .expect("GET answers");
+    let status = r.status().as_u16();
+    let body = r
+        .body_mut()
+        .with_config()
+        .limit(64 << 20)
+        .read_to_vec()
+        .expect("body");
+    (status, body)
+}
+
+fn json(bytes: &[u8]) -> Value {
+    serde_json::from_slice(bytes)
+        .unwrap_or_else(|e| panic!("not JSON ({e}): {}", String::from_utf8_lossy(bytes)))
+}
+
+/// POST `path` with `file` as the multipart field `file` named `name`: status and JSON.
+fn upload(server: &Server, path: &str, name: &str, file: &[u8]) -> (u16, Value) {
+    let boundary = "keycomp-test-boundary-7f3a";
+    let mut body = format!(
+        "--{boundary}\r\nContent-Disposition: form-data; name=\"file\"; filename=\"{name}\"\r\nContent-Type: application/octet-stream\r\n\r\n"
+    )
+    .into_bytes();
+    body.extend_from_slice(file);
+    body.extend_from_slice(format!("\r\n--{boundary}--\r\n").as_bytes());
+    let mut r = agent()
+        .post(&format!("{}{path}", server.base))
+        .header(
+            "Content-Type",
+            &format!("multipart/form-data; boundary={boundary}"),
+        )
+        .send(&body[..])
+        .expect("POST answers");
+    let status = r.status().as_u16();
+    let text = r.body_mut().read_to_string().expect("body");
+    (status, json(text.as_bytes()))
+}
+
+fn off_bytes(mesh: &keycomp_mesh::Mesh) -> Vec<u8> {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let p = dir.path().join("m.off");
+    keycomp_mesh::write_off(mesh, &p).expect("writes");
+    std::fs::read(p).expect("reads")
+}
+
+/// Two shapes of each of `classes` written to `dir/shapes` and indexed in `dir/index`: the
+/// index and the shapes (name, mesh).
+fn collection(dir: &Path, classes: &[Class]) -> (PathBuf, Vec<(String, keycomp_mesh::Mesh)>) {
+    let coll = dir.join("shapes");
+    std::fs::create_dir(&coll).expect("mkdir");
+    let params = GenerateParams {
+        target_vertices: 4000,
+        ..GenerateParams::default()
+    };
+    let mut meshes = Vec::new();
+    for &class in classes {
+        for i in 0..2 {
+            let shape = generate(class, i, &params).expect("generates");
+            keycomp_mesh::write_off(&shape.mesh, &coll.join(format!("{}.off", shape.name)))
+                .expect("writes");
+            meshes.push((shape.name, shape.mesh));
+        }
+    }
+    let index = dir.join("index");
+    let o = keycomp(&["index", "add", s(&coll), "--index", s(&index)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    (index, meshes)
+}
+
+#[test]
+fn serve_answers_the_api_and_survives_hostile_uploads() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let (index, meshes) = collection(tmp.path(), &[Class::Humanoid, Class::Mug, Class::Octopus]);
+    let params = GenerateParams {
+        target_vertices: 4000,
+        ..GenerateParams::default()
+    };
+    let server = serve(&index, &["--max-upload-mb", "1"]);
+
+    // the index and its shapes
+    let (status, body) = get(&server, "/api/index");
+    assert_eq!(status, 200);
+    assert_eq!(json(&body)["shapes"], 6);
+    let (status, body) = get(&server, "/api/shapes?limit=100");
+    assert_eq!(status, 200);
+    let list = json(&body);
+    assert_eq!(list["total"], 6);
+    let shapes = list["shapes"].as_array().expect("shapes");
+    assert_eq!(shapes.len(), 6);
+    let (_, body) = get(&server, "/api/shapes?filter=MUG");
+    assert_eq!(json(&body)["matched"], 2, "the filter ignores case");
+    let (_, body) = get(&server, "/api/shapes?limit=2&offset=5");
+    assert_eq!(json(&body)["shapes"].as_array().map(Vec::len), Some(1));
+
+    let first = &shapes[0];
+    let id = first["id"].as_u64().expect("id");
+    let (status, body) = get(&server, &format!("/api/shapes/{id}"));
+    assert_eq!(status, 200);
+    let record = json(&body);
+    assert_eq!(record["path"], first["path"]);
+    assert!(!record["parts"].as_array().expect("parts").is_empty());
+
+    // its mesh as GLB: the file's mesh, with colours
+    let (status, glb) = get(&server, &format!("/api/shapes/{id}/mesh.glb?parts=0,2"));
+    assert_eq!(status, 200);
+    let back = keycomp_mesh::read_mesh_from_bytes(&glb, keycomp_mesh::Format::Gltf)
+        .expect("a GLB keycomp reads")
+        .mesh;
+    assert_eq!(
+        back.num_vertices() as u64,
+        record["vertices"].as_u64().unwrap()
+    );
+    assert!(String::from_utf8_lossy(&glb[..glb.len().min(2000)]).contains("COLOR_0"));
+    let (status, body) = get(&server, &format!("/api/shapes/{id}/mesh.glb?parts=a"));
+    assert_eq!(status, 400, "{}", String::from_utf8_lossy(&body));
+
+    // a thumbnail, rendered once and kept beside the index
+    let (status, png) = get(&server, &format!("/api/shapes/{id}/thumb.png"));
+    assert_eq!(status, 200);
+    assert!(png.starts_with(b"\x89PNG"));
+    let kept = index.join("thumbnails");
+    assert_eq!(std::fs::read_dir(&kept).expect("thumbnails").count(), 1);
+    assert_eq!(get(&server, &format!("/api/shapes/{id}/thumb.png")).1, png);
+
+    // unknown shapes, assets and paths are 404; a request path never reaches the disk
+    assert_eq!(get(&server, "/api/shapes/999999").0, 404);
+    assert_eq!(get(&server, "/assets/..%2F..%2FCargo.toml").0, 404);
+    assert_eq!(get(&server, "/assets/app.js").0, 200);
+    let (status, page) = get(&server, "/");
+    assert_eq!(status, 200);
+    assert!(String::from_utf8_lossy(&page).contains("three.min.js"));
+
+    // a query by upload: a fragment (a plane cut keeping 60 % of the area) finds its source
+    let (source_name, source) = &meshes[2];
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+    let fragment =
+        keycomp_fragment::cut_fragment(source, keycomp_fragment::PartialKind::Plane, 0.6, &mut rng)
+            .expect("cuts");
+    let (status, answer) = upload(
+        &server,
+        "/api/query?k=3",
+        "piece of a mug.off",
+        &off_bytes(&fragment.mesh),
+    );
+    assert_eq!(status, 200, "{answer}");
+    assert_eq!(answer["query"], "piece_of_a_mug.off");
+    let top = answer["results"][0]["path"].as_str().expect("a result");
+    assert!(
+        top.ends_with(&format!("{source_name}.off")),
+        "{top} is not {source_name}"
+    );
+    assert!(answer["results"].as_array().unwrap().len() <= 3);
+    // "find similar" on an indexed shape ranks that shape first
+    let mut r = agent()
+        .post(&format!("{}/api/shapes/{id}/similar?k=2", server.base))
+        .send_empty()
+        .expect("POST answers");
+    assert_eq!(r.status().as_u16(), 200);
+    let similar = json(r.body_mut().read_to_string().unwrap().as_bytes());
+    assert_eq!(similar["results"][0]["path"], first["path"]);
+
+    // hostile and malformed uploads: 4xx with keycomp's message naming the upload
+    let truncated = b"OFF\n4 2 0\n0 0 0\n1 0 0\n";
+    let (status, e) = upload(&server, "/api/query", "cut.off", truncated);
+    assert_eq!(status, 400, "{e}");
+    assert!(e["error"].as_str().unwrap().starts_with("cut.off: "), "{e}");
+    assert!(
+        !e["error"].as_str().unwrap().contains("keycomp-serve-"),
+        "{e}"
+    );
+    let (status, e) = upload(
+        &server,
+        "/api/query",
+        "many.off",
+        b"OFF\n4000000000 4000000000 0\n0 0 0\n",
+    );
+    assert_eq!(status, 400, "{e}");
+    let (status, e) = upload(&server, "/api/query", "picture.png", b"\x89PNG\r\n\x1a\n");
+    assert_eq!(status, 400, "{e}");
+    assert!(
+        e["error"].as_str().unwrap().contains("unknown file format"),
+        "{e}"
+    );
+    let (status, e) = upload(&server, "/api/query", "huge.off", &vec![b'1'; 2 << 20]);
+    assert_eq!(status, 413, "{e}");
+    let (status, e) = upload(&server, "/api/query?k=0", "cut.off", truncated);
+    assert_eq!(status, 400, "{e}");
+    let mut r = agent()
+        .post(&format!("{}/api/query", server.base))
+        .send_empty()
+        .expect("POST answers");
+    assert_eq!(r.status().as_u16(), 400);
+    assert!(json(r.body_mut().read_to_string().unwrap().as_bytes())["error"].is_string());
+    // no upload is left behind
+    let left: Vec<_> = std::fs::read_dir(std::env::temp_dir())
+        .expect("ls")
+        .filter_map(|e| e.ok())
+        .filter(|e| {
+            e.file_name()
+                .to_string_lossy()
+                .starts_with("keycomp-serve-")
+                && e.path().join("cut.off").exists()
+        })
+        .collect();
+    assert!(left.is_empty(), "{left:?}");
+
+    // the server still answers, and sees a shape added by another process once committed
+    let extra = generate(Class::Bird, 0, &params).expect("generates");
+    let extra_path = tmp.path().join("bird.off");
+    keycomp_mesh::write_off(&extra.mesh, &extra_path).expect("writes");
+    let o = keycomp(&["index", "add", s(&extra_path), "--index", s(&index)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (status, body) = get(&server, "/api/index");
+    assert_eq!(status, 200);
+    assert_eq!(json(&body)["shapes"], 7);
+}
+
+/// Pixels of a PNG screenshot as RGB triples.
+fn pixels(png_bytes: &[u8]) -> Vec<[u8; 3]> {
+    let mut reader = png::Decoder::new(std::io::Cursor::new(png_bytes))
+        .read_info()
+        .expect("a PNG");
+    let mut buf = vec![0; reader.output_buffer_size().expect("size")];
+    let info = reader.next_frame(&mut buf).expect("decodes");
+    let step = info.color_type.samples();
+    buf[..info.buffer_size()]
+        .chunks_exact(step)
+        .map(|p| [p[0], p[1], p[2]])
+        .collect()
+}
+
+/// The app in headless Chromium: the collection's grid fills with every shape, and a shape
+/// opened in the 3D view is drawn with its parts in colour (WebGL on SwiftShader). The
+/// screenshots are kept in `target/tmp/serve-screenshots/`. Skipped without Chromium.
+#[test]
+fn the_app_draws_in_a_browser() {
+    let Some(browser) = chromium() else {
+        eprintln!("skipping the browser check: no chromium found (apt-get install chromium)");
+        return;
+    };
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let (index, _) = collection(tmp.path(), &[Class::Humanoid, Class::Mug]);
+    let server = serve(&index, &[]);
+    let shots = Path::new(env!("CARGO_TARGET_TMPDIR")).join("serve-screenshots");
+    std::fs::create_dir_all(&shots).expect("mkdir");
+
+    let dom = headless(&browser, &tmp.path().join("profile-1"))
+        .args(["--dump-dom", &format!("{}/", server.base)])
+        .output()
+        .expect("chromium runs");
+    let dom = String::from_utf8_lossy(&dom.stdout);
+    assert_eq!(dom.matches("class=\"card\"").count(), 4, "{dom}");
+    assert_eq!(dom.matches("/thumb.png").count(), 4, "{dom}");
+
+    let shot = shots.join("view.png");
+    let out = headless(&browser, &tmp.path().join("profile-2"))
+        .args([
+            "--use-gl=angle",
+            "--use-angle=swiftshader",
+            "--enable-unsafe-swiftshader",
+            "--window-size=900,700",
+            &format!("--screenshot={}", shot.display()),
+            &format!("{}/#view=0", server.base),
+        ])
+        .output()
+        .expect("chromium runs");
+    assert!(shot.is_file(), "{}", String::from_utf8_lossy(&out.stderr));
+    let px = pixels(&std::fs::read(&shot).expect("screenshot"));
+    // part colours are saturated; the page itself is black, white and greys
+    let coloured = px
+        .iter()
+        .filter(|p| {
+            let (lo, hi) = (p.iter().min().unwrap(), p.iter().max().unwrap());
+            hi - lo > 80
+        })
+        .count();
+    assert!(
+        coloured > px.len() / 500,
+        "the 3D view shows no coloured part: {coloured} of {} pixels",
+        px.len()
+    );
+}
