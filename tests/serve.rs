@@ -212,6 +212,29 @@ fn serve_answers_the_api_and_survives_hostile_uploads() {
         "{top} is not {source_name}"
     );
     assert!(answer["results"].as_array().unwrap().len() <= 3);
+    // the query's analysed mesh is kept for the 3D view, its matched parts coloured
+    let session = answer["session"].as_u64().expect("a session");
+    let hit = &answer["results"][0];
+    let parts: Vec<String> = hit["matches"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m["query_component"].to_string())
+        .collect();
+    let (status, glb) = get(
+        &server,
+        &format!(
+            "/api/queries/{session}/mesh.glb?hypothesis={}&parts={}",
+            hit["hypothesis"],
+            parts.join(",")
+        ),
+    );
+    assert_eq!(status, 200);
+    let query_mesh = keycomp_mesh::read_mesh_from_bytes(&glb, keycomp_mesh::Format::Gltf)
+        .expect("a GLB keycomp reads")
+        .mesh;
+    assert_eq!(query_mesh.num_faces(), fragment.mesh.num_faces());
+    assert_eq!(get(&server, "/api/queries/9999/mesh.glb").0, 404);
     // "find similar" on an indexed shape ranks that shape first
     let mut r = agent()
         .post(&format!("{}/api/shapes/{id}/similar?k=2", server.base))
@@ -277,23 +300,52 @@ fn serve_answers_the_api_and_survives_hostile_uploads() {
     assert_eq!(json(&body)["shapes"], 7);
 }
 
-/// Pixels of a PNG screenshot as RGB triples.
-fn pixels(png_bytes: &[u8]) -> Vec<[u8; 3]> {
+/// A PNG screenshot's width and pixels (RGB, row by row).
+fn pixels(png_bytes: &[u8]) -> (usize, Vec<[u8; 3]>) {
     let mut reader = png::Decoder::new(std::io::Cursor::new(png_bytes))
         .read_info()
         .expect("a PNG");
     let mut buf = vec![0; reader.output_buffer_size().expect("size")];
     let info = reader.next_frame(&mut buf).expect("decodes");
     let step = info.color_type.samples();
-    buf[..info.buffer_size()]
+    let px = buf[..info.buffer_size()]
         .chunks_exact(step)
         .map(|p| [p[0], p[1], p[2]])
-        .collect()
+        .collect();
+    (info.width as usize, px)
 }
 
-/// The app in headless Chromium: the collection's grid fills with every shape, and a shape
-/// opened in the 3D view is drawn with its parts in colour (WebGL on SwiftShader). The
-/// screenshots are kept in `target/tmp/serve-screenshots/`. Skipped without Chromium.
+/// A 1000 × 700 screenshot of `url` (WebGL on SwiftShader) written to `file`: its width and
+/// pixels. The browser profile is a fresh folder under `tmp`.
+fn screenshot(browser: &Path, tmp: &Path, file: &Path, url: &str) -> (usize, Vec<[u8; 3]>) {
+    let profile = tempfile::tempdir_in(tmp).expect("profile folder");
+    let out = headless(browser, profile.path())
+        .args([
+            "--use-gl=angle",
+            "--use-angle=swiftshader",
+            "--enable-unsafe-swiftshader",
+            "--window-size=1000,700",
+            "--virtual-time-budget=20000",
+            &format!("--screenshot={}", file.display()),
+            url,
+        ])
+        .output()
+        .expect("chromium runs");
+    assert!(file.is_file(), "{}", String::from_utf8_lossy(&out.stderr));
+    pixels(&std::fs::read(file).expect("screenshot"))
+}
+
+/// A saturated pixel: a part's colour (the page itself is black, white and greys).
+fn coloured(p: [u8; 3]) -> bool {
+    let (lo, hi) = (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]));
+    hi - lo > 80
+}
+
+/// The app in headless Chromium: the collection's grid fills with every shape; a shape ranked
+/// against the collection shows, with a result opened, the query and the result side by side
+/// with matched parts coloured; a shape opened alone is drawn with its parts in colour (WebGL
+/// on SwiftShader). The screenshots are kept in `target/tmp/serve-screenshots/`. Skipped
+/// without Chromium.
 #[test]
 fn the_app_draws_in_a_browser() {
     let Some(browser) = chromium() else {
@@ -314,31 +366,34 @@ fn the_app_draws_in_a_browser() {
     assert_eq!(dom.matches("class=\"card\"").count(), 4, "{dom}");
     assert_eq!(dom.matches("/thumb.png").count(), 4, "{dom}");
 
-    let shot = shots.join("view.png");
-    let out = headless(&browser, &tmp.path().join("profile-2"))
-        .args([
-            "--use-gl=angle",
-            "--use-angle=swiftshader",
-            "--enable-unsafe-swiftshader",
-            "--window-size=900,700",
-            &format!("--screenshot={}", shot.display()),
-            &format!("{}/#view=0", server.base),
-        ])
-        .output()
-        .expect("chromium runs");
-    assert!(shot.is_file(), "{}", String::from_utf8_lossy(&out.stderr));
-    let px = pixels(&std::fs::read(&shot).expect("screenshot"));
-    // part colours are saturated; the page itself is black, white and greys
-    let coloured = px
-        .iter()
-        .filter(|p| {
-            let (lo, hi) = (p.iter().min().unwrap(), p.iter().max().unwrap());
-            hi - lo > 80
-        })
-        .count();
+    // a shape ranked against the collection, its second result opened beside the query
+    let (width, px) = screenshot(
+        &browser,
+        tmp.path(),
+        &shots.join("similar.png"),
+        &format!("{}/#similar=0&open=2", server.base),
+    );
+    let (left, right): (Vec<_>, Vec<_>) = (0..px.len()).partition(|i| i % width < width / 2);
+    for (side, idx) in [("query", left), ("result", right)] {
+        let n = idx.iter().filter(|&&i| coloured(px[i])).count();
+        assert!(
+            n > idx.len() / 500,
+            "the {side} pane shows no coloured part: {n} of {} pixels",
+            idx.len()
+        );
+    }
+
+    // a shape opened alone
+    let (_, px) = screenshot(
+        &browser,
+        tmp.path(),
+        &shots.join("view.png"),
+        &format!("{}/#view=0", server.base),
+    );
+    let n = px.iter().filter(|&&p| coloured(p)).count();
     assert!(
-        coloured > px.len() / 500,
-        "the 3D view shows no coloured part: {coloured} of {} pixels",
+        n > px.len() / 500,
+        "the 3D view shows no coloured part: {n} of {} pixels",
         px.len()
     );
 }

@@ -71,7 +71,8 @@ async function search(url, file, name) {
     const answer = await api(`${url}?k=${k}&verify=${verify}`, { method: "POST", body });
     status.textContent = `${name}: ${answer.components} parts, ` +
       `${answer.results.length} results in ${((performance.now() - start) / 1000).toFixed(1)} s`;
-    showResults(answer);
+    await showResults(answer);
+    return answer;
   } catch (e) {
     status.className = "error";
     status.textContent = e.message;
@@ -101,43 +102,36 @@ async function showResults(answer) {
       el("div", {}, el("span", { className: "score", textContent: `#${hit.rank} ${hit.score.toFixed(3)}` }),
         el("span", { className: "note", textContent: verified })),
       el("div", { textContent: hit.path }));
-    if (id !== undefined) card.onclick = () => view(id, hit.path, hit);
+    if (id !== undefined) card.onclick = () => view(id, hit.path, hit, answer.session, answer.query);
     grid.append(card);
   }
 }
 
-// The 3D view of an indexed shape; with a hit, its matched parts in the palette's order.
-let renderer = null;
-async function view(id, path, hit) {
-  $("viewer").hidden = false;
-  $("viewer-title").textContent = path + (hit ? ` · score ${hit.score.toFixed(3)}` : "");
-  const legend = $("legend");
-  legend.replaceChildren();
-  let parts = "";
-  if (hit) {
-    parts = "?parts=" + hit.matches.map((m) => m.target_component).join(",");
-    hit.matches.forEach((m, k) => legend.append(el("li", {},
-      el("span", { className: "sw", style: `background:${distinct(k)}` }),
-      `query part ${m.query_component} ↔ part ${m.target_component}: distance ${m.distance.toFixed(3)}`)));
-  }
-  const box = $("view3d");
-  box.replaceChildren();
+// The palette as byte triples, to tell which pair a hovered vertex belongs to.
+const PALETTE = Array.from({ length: 64 }, (_, k) => distinct(k).slice(4, -1).split(",").map(Number));
+
+// One 3D pane in `box`: the GLB at `url`, orbit controls, and `hover(k)` called with the
+// palette index of the coloured part under the pointer (-1 for none).
+function pane(box, url, label, hover) {
   const scene = new THREE.Scene();
   scene.background = new THREE.Color(0xf4f4f4);
   scene.add(new THREE.HemisphereLight(0xffffff, 0x666666, 0.9));
   const light = new THREE.DirectionalLight(0xffffff, 0.6);
   light.position.set(1, 2, 3);
   scene.add(light);
-  const camera = new THREE.PerspectiveCamera(40, box.clientWidth / Math.max(1, box.clientHeight), 0.001, 1000);
-  if (!renderer) renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
-  renderer.setSize(box.clientWidth, box.clientHeight);
-  box.append(renderer.domElement);
+  const width = Math.max(1, box.clientWidth), height = Math.max(1, box.clientHeight);
+  const camera = new THREE.PerspectiveCamera(40, width / height, 0.001, 1000);
+  const renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
+  renderer.setSize(width, height);
+  box.append(el("div", { className: "label", textContent: label }), renderer.domElement);
   const controls = new THREE.OrbitControls(camera, renderer.domElement);
-  new THREE.GLTFLoader().load(`/api/shapes/${id}/mesh.glb${parts}`, (gltf) => {
+  let mesh = null;
+  new THREE.GLTFLoader().load(url, (gltf) => {
     gltf.scene.traverse((o) => {
       if (o.isMesh) {
         o.geometry.computeVertexNormals();
         o.material = new THREE.MeshLambertMaterial({ vertexColors: THREE.VertexColors, side: THREE.DoubleSide });
+        mesh = o;
       }
     });
     const bounds = new THREE.Box3().setFromObject(gltf.scene);
@@ -149,12 +143,73 @@ async function view(id, path, hit) {
     controls.update();
     scene.add(gltf.scene);
     box.dataset.loaded = "1";
-  }, undefined, (e) => { legend.append(el("li", { className: "error", textContent: String(e.message || e) })); });
-  box.dataset.loaded = "";
+  }, undefined, (e) => box.append(el("div", { className: "error", textContent: String(e.message || e) })));
+  const ray = new THREE.Raycaster();
+  renderer.domElement.onmousemove = (ev) => {
+    if (!mesh) return;
+    const r = renderer.domElement.getBoundingClientRect();
+    ray.setFromCamera(new THREE.Vector2(((ev.clientX - r.left) / r.width) * 2 - 1, -((ev.clientY - r.top) / r.height) * 2 + 1), camera);
+    const hit = ray.intersectObject(mesh)[0];
+    const colours = mesh.geometry.getAttribute("color");
+    if (!hit || !colours) { hover(-1); return; }
+    const v = hit.face.a;
+    const bytes = colours.array instanceof Uint8Array;
+    const c = [colours.getX(v), colours.getY(v), colours.getZ(v)].map((x) => (bytes ? x : Math.round(x * 255)));
+    hover(PALETTE.findIndex((p) => p[0] === c[0] && p[1] === c[1] && p[2] === c[2]));
+  };
+  renderer.domElement.onmouseleave = () => hover(-1);
+  const render = () => {
+    const w = Math.max(1, box.clientWidth), h = Math.max(1, box.clientHeight);
+    const size = renderer.getSize(new THREE.Vector2());
+    if (size.x !== w || size.y !== h) {
+      renderer.setSize(w, h);
+      camera.aspect = w / h;
+      camera.updateProjectionMatrix();
+    }
+    renderer.render(scene, camera);
+  };
+  return { render, dispose: () => renderer.dispose() };
+}
+
+// The 3D view of an indexed shape; with a hit, the query `queryName` (when the server kept it,
+// as `session`) and the shape side by side, the k-th matched pair in the palette's k-th colour on both.
+let panes = [];
+function view(id, path, hit, session, queryName) {
+  $("viewer").hidden = false;
+  $("viewer-title").textContent = path + (hit ? ` · score ${hit.score.toFixed(3)}` : "");
+  const legend = $("legend");
+  legend.replaceChildren();
+  const box = $("view3d");
+  box.replaceChildren();
+  for (const p of panes) p.dispose();
+  panes = [];
+  const tip = $("hover");
+  const hover = (k) => {
+    if (!hit || k < 0 || k >= hit.matches.length) { tip.textContent = ""; return; }
+    const m = hit.matches[k];
+    tip.textContent = `pair ${k + 1}: query part ${m.query_component} ↔ part ${m.target_component}, distance ${m.distance.toFixed(3)}`;
+  };
+  let parts = "";
+  if (hit) {
+    parts = "?parts=" + hit.matches.map((m) => m.target_component).join(",");
+    hit.matches.forEach((m, k) => legend.append(el("li", {},
+      el("span", { className: "sw", style: `background:${distinct(k)}` }),
+      `query part ${m.query_component} ↔ part ${m.target_component}: distance ${m.distance.toFixed(3)}`)));
+  }
+  // both panes laid out before either renderer takes its size
+  const withQuery = hit && session !== undefined && session !== null;
+  const q = el("div", { className: "pane" }), r = el("div", { className: "pane" });
+  if (withQuery) box.append(q);
+  box.append(r);
+  if (withQuery) {
+    const queryParts = hit.matches.map((m) => m.query_component).join(",");
+    panes.push(pane(q, `/api/queries/${session}/mesh.glb?hypothesis=${hit.hypothesis}&parts=${queryParts}`, `query: ${queryName}`, hover));
+  }
+  panes.push(pane(r, `/api/shapes/${id}/mesh.glb${parts}`, path, hover));
   (function animate() {
     if ($("viewer").hidden) return;
     requestAnimationFrame(animate);
-    renderer.render(scene, camera);
+    for (const p of panes) p.render();
   })();
 }
 
@@ -172,10 +227,21 @@ drop.ondrop = (e) => {
   const f = e.dataTransfer.files[0];
   if (f) search("/api/query", f, f.name);
 };
-// `#view=ID` opens shape ID in the 3D view (a link to a shape).
+// `#view=ID` opens shape ID in the 3D view (a link to a shape); `#similar=ID` ranks the
+// collection against shape ID, and with `&open=R` opens result R beside the query.
 function fromHash() {
   const m = /^#view=(\d+)$/.exec(location.hash);
-  if (m) api(`/api/shapes/${m[1]}`).then((s) => view(s.id, s.path, null)).catch(() => {});
+  if (m) api(`/api/shapes/${m[1]}`).then((s) => view(s.id, s.path, null, null)).catch(() => {});
+  const q = /^#similar=(\d+)(?:&open=(\d+))?$/.exec(location.hash);
+  if (q) {
+    api(`/api/shapes/${q[1]}`)
+      .then((s) => search(`/api/shapes/${s.id}/similar`, null, s.path))
+      .then(() => {
+        const card = document.querySelectorAll("#result-grid .card")[Number(q[2] || 0) - 1];
+        if (card) card.click();
+      })
+      .catch(() => {});
+  }
 }
 window.onhashchange = fromHash;
 loadInfo().then(loadPage).then(fromHash).catch((e) => { $("info").textContent = e.message; $("info").className = "error"; });

@@ -50,6 +50,41 @@ pub struct Args {
     /// colours.
     #[arg(long, value_name = "DIR")]
     pub report: Option<PathBuf>,
+    /// Also write the analysed query to this JSON file: the mesh its parts are on (the file,
+    /// or its canonical surface) as `positions` and `faces`, and each scale hypothesis' parts
+    /// as vertex ids (`hypotheses[h][part]`, the numbering of `query_component`), for viewers
+    /// of the matched parts (`keycomp serve` uses it).
+    #[arg(long, value_name = "FILE")]
+    pub analysis_out: Option<PathBuf>,
+}
+
+/// What `--analysis-out` writes.
+#[derive(Debug, serde::Serialize, serde::Deserialize)]
+pub struct AnalysisOut {
+    /// Vertex positions of the analysed mesh.
+    pub positions: Vec<[f64; 3]>,
+    /// Its triangles.
+    pub faces: Vec<[u32; 3]>,
+    /// Per scale hypothesis, per part, its vertex ids.
+    pub hypotheses: Vec<Vec<Vec<u32>>>,
+}
+
+impl AnalysisOut {
+    fn of(q: &keycomp::Analysed) -> AnalysisOut {
+        AnalysisOut {
+            positions: q.mesh.positions.iter().map(|p| [p.x, p.y, p.z]).collect(),
+            faces: q.mesh.faces.clone(),
+            hypotheses: (0..q.hypothesis_count())
+                .map(|h| {
+                    q.hypothesis(h)
+                        .components
+                        .iter()
+                        .map(|c| c.vertices.clone())
+                        .collect()
+                })
+                .collect(),
+        }
+    }
 }
 
 pub fn run(args: Args) -> Result<ExitCode> {
@@ -71,6 +106,10 @@ pub fn run(args: Args) -> Result<ExitCode> {
         search: search_ms,
         ..
     } = answer.timings_ms;
+    if let Some(file) = &args.analysis_out {
+        let text = serde_json::to_vec(&AnalysisOut::of(&q))?;
+        output::write_bytes(file, &text)?;
+    }
     let not_returned = &answer.not_returned;
     let report = match &args.report {
         Some(dir) => {

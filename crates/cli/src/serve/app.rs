@@ -30,6 +30,7 @@ pub(crate) struct State {
     exe: PathBuf,
     index: Index,
     queries: tokio::sync::Semaphore,
+    sessions: super::sessions::Sessions,
     timeout: Duration,
     threads_per_job: usize,
 }
@@ -41,6 +42,7 @@ impl State {
             exe: std::env::current_exe()?,
             index: Index::open(&options.index)?,
             queries: tokio::sync::Semaphore::new(options.jobs),
+            sessions: super::sessions::Sessions::default(),
             timeout: options.timeout,
             threads_per_job: options.threads_per_job,
         })
@@ -192,24 +194,58 @@ pub(crate) async fn shape_glb(
     p: Result<Query<GlbParams>, QueryRejection>,
 ) -> Result<Response, ApiError> {
     let (UrlPath(id), Query(p)) = (rejected(id)?, rejected(p)?);
-    let parts = match p.parts.as_deref() {
-        None | Some("") => None,
-        Some(list) => Some(
-            list.split(',')
-                .map(|s| s.trim().parse::<usize>())
-                .collect::<Result<Vec<_>, _>>()
-                .map_err(|_| {
-                    ApiError::bad_request(format!(
-                        "parts: expected part numbers separated by commas, got '{list}'"
-                    ))
-                })?,
-        ),
+    let parts = parse_parts(p.parts.as_deref())?;
+    glb(blocking(move || state.index.glb(id, parts)).await?)
+}
+
+/// A GLB answer.
+fn glb(bytes: Vec<u8>) -> Result<Response, ApiError> {
+    Ok(([(header::CONTENT_TYPE, "model/gltf-binary")], bytes).into_response())
+}
+
+/// A `parts` parameter: part numbers separated by commas (none: `None`), at most [`MAX_K`].
+fn parse_parts(list: Option<&str>) -> Result<Option<Vec<usize>>, ApiError> {
+    let Some(list) = list.filter(|l| !l.is_empty()) else {
+        return Ok(None);
     };
-    if parts.as_ref().is_some_and(|p| p.len() > MAX_K) {
+    let parts = list
+        .split(',')
+        .map(|s| s.trim().parse::<usize>())
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|_| {
+            ApiError::bad_request(format!(
+                "parts: expected part numbers separated by commas, got '{list}'"
+            ))
+        })?;
+    if parts.len() > MAX_K {
         return Err(ApiError::bad_request(format!("parts: at most {MAX_K}")));
     }
-    let bytes = blocking(move || state.index.glb(id, parts)).await?;
-    Ok(([(header::CONTENT_TYPE, "model/gltf-binary")], bytes).into_response())
+    Ok(Some(parts))
+}
+
+#[derive(Debug, Deserialize)]
+pub(crate) struct QueryGlbParams {
+    #[serde(default)]
+    hypothesis: usize,
+    parts: Option<String>,
+}
+
+/// The analysed mesh of a query this server answered, its listed parts coloured as
+/// [`shape_glb`] colours a shape's.
+pub(crate) async fn query_glb(
+    Shared(state): AppState,
+    id: Result<UrlPath<u64>, PathRejection>,
+    p: Result<Query<QueryGlbParams>, QueryRejection>,
+) -> Result<Response, ApiError> {
+    let (UrlPath(id), Query(p)) = (rejected(id)?, rejected(p)?);
+    let parts = parse_parts(p.parts.as_deref())?.unwrap_or_default();
+    let session = state.sessions.get(id).ok_or_else(|| {
+        ApiError::not_found(format!(
+            "query {id} is no longer kept (the last {} are): run it again",
+            super::sessions::KEPT
+        ))
+    })?;
+    glb(blocking(move || Ok(session.glb(p.hypothesis, &parts))).await?)
 }
 
 pub(crate) async fn shape_thumb(
@@ -380,8 +416,15 @@ async fn run_query(
         .acquire()
         .await
         .map_err(|_| ApiError::internal("the server is stopping"))?;
+    let scratch = tempfile::Builder::new()
+        .prefix("keycomp-serve-")
+        .tempdir()
+        .map_err(|e| ApiError::internal(format!("no temporary folder: {e}")))?;
+    let analysis = scratch.path().join("analysis.json");
     let child = tokio::process::Command::new(&state.exe)
         .arg("query")
+        .arg("--analysis-out")
+        .arg(&analysis)
         .arg("--index")
         .arg(&state.dir)
         .arg("--json")
@@ -430,6 +473,14 @@ async fn run_query(
     let mut answer: serde_json::Value = serde_json::from_slice(&out.stdout)
         .map_err(|e| ApiError::internal(format!("keycomp query printed no JSON: {e}")))?;
     answer["query"] = serde_json::Value::String(shown.to_string());
+    let session = blocking(move || {
+        let text = std::fs::read(&analysis)
+            .map_err(|e| ApiError::internal(format!("keycomp query wrote no analysis: {e}")))?;
+        drop(scratch);
+        super::sessions::Session::from_json(&text).map_err(ApiError::internal)
+    })
+    .await?;
+    answer["session"] = serde_json::json!(state.sessions.insert(session));
     let warnings: Vec<String> = String::from_utf8_lossy(&out.stderr)
         .lines()
         .filter_map(|l| l.strip_prefix("warning: "))

@@ -15,7 +15,11 @@
 //!   `DIR/thumbnails/` under the file's content hash (so a changed file gets a new one).
 //! - `POST /api/query?k=10&verify=auto`: the multipart field `file` (its name's extension
 //!   picks the reader, as for `keycomp query`) ranked against the index; the answer is what
-//!   `keycomp query --json` prints.
+//!   `keycomp query --json` prints, with `session`: the number the query's mesh is kept under.
+//! - `GET /api/queries/{session}/mesh.glb?hypothesis=0&parts=3,7`: that query's analysed mesh,
+//!   its listed parts (`query_component`s of scale hypothesis `hypothesis`) coloured as a
+//!   shape's are: the k-th listed part of the query and the k-th of a shape share a colour.
+//!   The last [`sessions::KEPT`] queries are kept.
 //! - `POST /api/shapes/{id}/similar?k=10`: the same with an indexed shape as the query.
 //!
 //! # Safety
@@ -28,6 +32,7 @@
 //! process. An error is answered as `{"error": "…"}` with a 4xx status for bad input.
 
 mod app;
+mod sessions;
 mod shapes;
 
 use std::net::SocketAddr;
@@ -96,6 +101,7 @@ fn router(state: Arc<app::State>, max_upload: usize) -> Router {
         .route("/api/shapes/{id}/thumb.png", get(app::shape_thumb))
         .route("/api/shapes/{id}/similar", post(app::similar))
         .route("/api/query", post(app::query))
+        .route("/api/queries/{id}/mesh.glb", get(app::query_glb))
         .layer(DefaultBodyLimit::max(max_upload))
         .with_state(state)
 }

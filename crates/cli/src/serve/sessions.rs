@@ -1,0 +1,108 @@
+//! The queries `keycomp serve` answered, kept for their 3D view: each query's analysed mesh
+//! and its parts (what `keycomp query --analysis-out` writes), the last [`KEPT`] of them.
+
+use std::collections::VecDeque;
+use std::sync::{Arc, Mutex};
+
+use keycomp_mesh::{Mesh, Point3};
+
+use super::shapes::WHOLE;
+use crate::colors;
+use crate::commands::query::AnalysisOut;
+
+/// Queries kept.
+pub(crate) const KEPT: usize = 16;
+
+/// One answered query.
+pub(crate) struct Session {
+    mesh: Mesh,
+    hypotheses: Vec<Vec<Vec<u32>>>,
+}
+
+impl Session {
+    /// From `keycomp query --analysis-out`'s JSON; why not when it is not that.
+    pub(crate) fn from_json(bytes: &[u8]) -> Result<Session, String> {
+        let a: AnalysisOut = serde_json::from_slice(bytes)
+            .map_err(|e| format!("keycomp query wrote an unreadable analysis: {e}"))?;
+        // the mesh keycomp analysed, ids kept: the parts' vertex ids are its
+        let mesh = Mesh {
+            positions: a
+                .positions
+                .iter()
+                .map(|p| Point3::new(p[0], p[1], p[2]))
+                .collect(),
+            faces: a.faces,
+        };
+        let n = mesh.num_vertices();
+        let outside = |v: &u32| *v as usize >= n;
+        if mesh.faces.iter().flatten().any(outside)
+            || a.hypotheses.iter().flatten().flatten().any(outside)
+        {
+            return Err("keycomp query wrote vertex ids outside its mesh".into());
+        }
+        Ok(Session {
+            mesh,
+            hypotheses: a.hypotheses,
+        })
+    }
+
+    /// GLB of the mesh, the k-th of `parts` (of scale hypothesis `h`) in the palette's k-th
+    /// colour, grey elsewhere, as a shape's GLB is coloured (`Index::glb`, by vertex share
+    /// here); parts it does not have are skipped.
+    pub(crate) fn glb(&self, h: usize, parts: &[usize]) -> Vec<u8> {
+        let mut cols = vec![colors::GREY; self.mesh.num_vertices()];
+        if let Some(hyp) = self.hypotheses.get(h) {
+            let n = self.mesh.num_vertices() as f32;
+            let part = |p: usize| hyp.get(p).map_or(&[][..], Vec::as_slice);
+            // as a shape's parts are painted: larger first, the whole surface not at all
+            let mut paint: Vec<(usize, usize)> = parts
+                .iter()
+                .copied()
+                .enumerate()
+                .filter(|&(_, p)| (part(p).len() as f32) < WHOLE * n)
+                .collect();
+            paint.sort_by_key(|&(_, p)| std::cmp::Reverse(part(p).len()));
+            for (k, p) in paint {
+                for &v in part(p) {
+                    cols[v as usize] = colors::distinct(k);
+                }
+            }
+        }
+        keycomp_mesh::glb_bytes(&self.mesh, Some(&cols))
+    }
+}
+
+/// The last [`KEPT`] sessions, by number.
+#[derive(Default)]
+pub(crate) struct Sessions {
+    kept: Mutex<Kept>,
+}
+
+#[derive(Default)]
+struct Kept {
+    /// The next session's number.
+    next: u64,
+    /// Newest first.
+    list: VecDeque<(u64, Arc<Session>)>,
+}
+
+impl Sessions {
+    /// Keeps `s` (dropping the oldest beyond [`KEPT`]); its number.
+    pub(crate) fn insert(&self, s: Session) -> u64 {
+        let mut kept = self.kept.lock().unwrap_or_else(|e| e.into_inner());
+        let id = kept.next;
+        kept.next += 1;
+        kept.list.push_front((id, Arc::new(s)));
+        kept.list.truncate(KEPT);
+        id
+    }
+
+    /// Session `id`, if still kept.
+    pub(crate) fn get(&self, id: u64) -> Option<Arc<Session>> {
+        let kept = self.kept.lock().unwrap_or_else(|e| e.into_inner());
+        kept.list
+            .iter()
+            .find(|(i, _)| *i == id)
+            .map(|(_, s)| s.clone())
+    }
+}
