@@ -1,6 +1,9 @@
-//! HTML reports of queries (`keycomp query --report DIR`, `keycomp demo`): each query rendered
-//! with its key-components coloured, and each result rendered with its matched components in
-//! the colours of the query components they match, scores and descriptor distances beside.
+//! HTML reports of queries (`keycomp query --report DIR`, `keycomp demo`), results first: each
+//! query's picture large, with the parts its best result matched each in its own colour, then
+//! its results as pictures with rank, score and verified share, each with the parts matched to
+//! the query's in the same colours (unmatched parts dark grey, larger parts under smaller ones,
+//! the whole-surface part not drawn); the matched pairs and the query's parts are folded away
+//! below.
 //!
 //! Result meshes are read from the indexed paths. The index keeps each component's centre
 //! vertex and area fraction but not its vertex set, so a result's component is drawn as the
@@ -213,10 +216,35 @@ pub(crate) fn index_surface(reader: &Reader) -> Option<SurfaceParams> {
         .and_then(|p| p.surface)
 }
 
-/// Per-vertex colours of an indexed shape's `mesh` (with its `solver`): `base` everywhere,
-/// then each `(part, colour)` of `paint` in order, painted as the region of the part's indexed
-/// area around its indexed centre ([`region_of_area`]); parts the record does not have, or
-/// whose centre is not a vertex of `mesh`, are skipped.
+/// Parts covering at least this share of the surface (the whole-surface part, a part of every
+/// shape) are not coloured: they would hide every other.
+pub(crate) const WHOLE: f64 = 0.99;
+
+/// Per-vertex colours of a mesh of `n` vertices: `base`, then each region `(share of the
+/// surface, vertices, colour)` painted larger first, so smaller ones stay visible on them;
+/// regions covering the whole surface ([`WHOLE`]) are skipped.
+pub(crate) fn paint_regions(
+    n: usize,
+    mut regions: Vec<(f64, Vec<VertexId>, [u8; 3])>,
+    base: [u8; 3],
+) -> Vec<[u8; 3]> {
+    regions.retain(|r| r.0 < WHOLE);
+    regions.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let mut cols = vec![base; n];
+    for (_, vertices, col) in regions {
+        for v in vertices {
+            if let Some(c) = cols.get_mut(v as usize) {
+                *c = col;
+            }
+        }
+    }
+    cols
+}
+
+/// Per-vertex colours of an indexed shape's `mesh` (with its `solver`): each `(part, colour)`
+/// of `paint` drawn as the region of the part's indexed area around its indexed centre
+/// ([`region_of_area`]), as [`paint_regions`] paints; parts the record does not have, or whose
+/// centre is not a vertex of `mesh`, are skipped.
 pub(crate) fn paint_parts(
     mesh: &Mesh,
     solver: &GeodesicSolver,
@@ -224,17 +252,34 @@ pub(crate) fn paint_parts(
     paint: &[(usize, [u8; 3])],
     base: [u8; 3],
 ) -> Vec<[u8; 3]> {
-    let mut cols = vec![base; mesh.num_vertices()];
-    for &(part, col) in paint {
-        if let Some(c) = record.components.get(part)
-            && (c.centre_vertex as usize) < mesh.num_vertices()
-        {
-            for v in region_of_area(mesh, solver, c.centre_vertex, c.area_fraction as f64) {
-                cols[v as usize] = col;
-            }
-        }
-    }
-    cols
+    let regions = paint
+        .iter()
+        .filter_map(|&(part, col)| {
+            let c = record.components.get(part)?;
+            let share = f64::from(c.area_fraction);
+            ((c.centre_vertex as usize) < mesh.num_vertices() && share < WHOLE).then(|| {
+                let region = region_of_area(mesh, solver, c.centre_vertex, share);
+                (share, region, col)
+            })
+        })
+        .collect();
+    paint_regions(mesh.num_vertices(), regions, base)
+}
+
+/// Per-vertex colours of a query's mesh: each `(part, colour)` of `paint`, a part of its
+/// description under scale hypothesis `h`, as [`paint_regions`] paints.
+pub(crate) fn paint_query_parts(
+    q: &Analysed,
+    h: usize,
+    paint: &[(usize, [u8; 3])],
+    base: [u8; 3],
+) -> Vec<[u8; 3]> {
+    let parts = &q.hypothesis(h).components;
+    let regions = paint
+        .iter()
+        .filter_map(|&(part, col)| parts.get(part).map(|c| (c.area, c.vertices.clone(), col)))
+        .collect();
+    paint_regions(q.mesh.num_vertices(), regions, base)
 }
 
 /// A PNG of `mesh` in its [`principal_pose`], seen from the front, a little from the right
@@ -259,9 +304,11 @@ fn png(mesh: &Mesh, cols: &[[u8; 3]], size: u32, path: &Path) -> Result<()> {
 
 const STYLE: &str = "body{font-family:system-ui,sans-serif;margin:1.5em;color:#222}
 h1{font-size:1.4em}h2{font-size:1.15em;margin-top:2em;border-top:1px solid #ccc;padding-top:1em}
-.query{display:flex;gap:1.5em;align-items:flex-start}
-table{border-collapse:collapse}td,th{padding:4px 8px;vertical-align:top;text-align:left}
-tr.result{border-top:1px solid #eee}
+.query{display:flex;gap:1.5em;align-items:flex-start}figure{margin:0}
+.results{display:flex;flex-wrap:wrap;gap:1em;align-items:flex-start}
+figure.result{border:1px solid #ddd;border-radius:6px;padding:6px}
+figcaption{font-size:0.85em;max-width:240px;overflow-wrap:anywhere}
+details{margin-top:0.6em;font-size:0.9em}
 .sw{display:inline-block;width:0.9em;height:0.9em;border:1px solid #555;vertical-align:middle;margin-right:4px}
 .missing{width:220px;height:60px;display:flex;align-items:center;color:#a33;font-size:0.9em}
 .note{color:#555}code{font-size:0.9em}";
@@ -306,53 +353,46 @@ fn build(out: &Path, reader: &Reader, entries: &[QueryEntry], params: &ReportPar
     writeln!(
         h,
         "<h1>keycomp query report</h1>\n<p class=\"note\">Index <code>{}</code>, {} shapes. \
-         Each query's key-components have their own colour; in each result, the component \
-         matched to a query component has that component's colour, unmatched components are \
-         dark grey. Result components are drawn as the region of their indexed area around \
+         Each query is drawn with the parts its best result matched, each in its own colour; \
+         each result with the parts matched to the query's in the same colours (a query part \
+         keeps its colour in every result), unmatched parts dark grey, larger parts under \
+         smaller ones. Result parts are drawn as the region of their indexed area around \
          their indexed centre (the index keeps centres and areas, not vertex sets).</p>",
         escape(&reader.dir().display().to_string()),
         reader.len()
     )?;
     for (qi, e) in entries.iter().enumerate() {
         let q = e.query;
-        let qimg = format!("q{:02}.png", qi + 1);
-        let mut cols = vec![colors::GREY; q.mesh.num_vertices()];
-        for (i, c) in q.detection.components.iter().enumerate() {
-            for &v in &c.vertices {
-                cols[v as usize] = colors::distinct(i);
-            }
-        }
-        png(&q.mesh, &cols, params.query_size, &out.join(&qimg))?;
         writeln!(h, "<h2>{}</h2>", escape(&e.title))?;
         if let Some(n) = &e.note {
             writeln!(h, "<p class=\"note\">{}</p>", escape(n))?;
         }
+        // the query with the parts its best result matched
+        let (top_h, top_matches) = e
+            .results
+            .first()
+            .map_or((0, &[][..]), |r| (r.hypothesis, &r.result.matches[..]));
+        let paint: Vec<(usize, [u8; 3])> = top_matches
+            .iter()
+            .map(|m| (m.query, colors::distinct(m.query)))
+            .collect();
+        let qimg = format!("q{:02}.png", qi + 1);
+        let cols = paint_query_parts(q, top_h, &paint, colors::GREY);
+        png(&q.mesh, &cols, params.query_size, &out.join(&qimg))?;
         writeln!(
             h,
-            "<div class=\"query\"><img src=\"{qimg}\" width=\"{s}\" height=\"{s}\" alt=\"query {}\"><div><p>{} vertices, {} key-components:</p><ul>",
+            "<div class=\"query\"><figure><img src=\"{qimg}\" width=\"{s}\" height=\"{s}\" alt=\"query {}\"><figcaption>the query: {} vertices, {} parts</figcaption></figure>",
             escape(&e.title),
             q.mesh.num_vertices(),
             q.description.components.len(),
             s = params.query_size
         )?;
-        for (i, c) in q.description.components.iter().enumerate() {
-            writeln!(
-                h,
-                "<li><span class=\"sw\" style=\"background:{}\"></span>component {i}: {:.1} % of the area, {} keypoints</li>",
-                hex(colors::distinct(i)),
-                c.area * 100.0,
-                c.keypoints
-            )?;
-        }
-        writeln!(h, "</ul></div></div>")?;
         if e.results.is_empty() {
-            writeln!(h, "<p>No indexed shape matches this query.</p>")?;
-            continue;
+            writeln!(h, "<p>No indexed shape matches this query.</p></div>")?;
+        } else {
+            writeln!(h, "<div class=\"results\">")?;
         }
-        writeln!(
-            h,
-            "<table><tr><th>rank</th><th>picture</th><th>shape, score and matched components</th></tr>"
-        )?;
+        let mut details = String::new();
         for (ri, r) in e.results.iter().enumerate() {
             let Some(rec) = reader.get(r.id)? else {
                 continue;
@@ -387,22 +427,19 @@ fn build(out: &Path, reader: &Reader, entries: &[QueryEntry], params: &ReportPar
                     format!("<div class=\"missing\">no picture: {}</div>", escape(why))
                 }
             };
-            let mut matches = String::new();
-            for m in &r.result.matches {
-                write!(
-                    matches,
-                    "<li><span class=\"sw\" style=\"background:{}\"></span>query {} ↔ component {} (distance {:.3})</li>",
-                    hex(colors::distinct(m.query)),
-                    m.query,
-                    m.target,
-                    m.distance
-                )?;
-            }
+            let path = escape(&rec.path.display().to_string());
             writeln!(
                 h,
-                "<tr class=\"result\"><td>{}</td><td>{picture}</td><td><code>{}</code><br>score <b>{:.3}</b>, {} of {} query components matched{}<ul>{matches}</ul></td></tr>",
+                "<figure class=\"result\">{picture}<figcaption><b>#{} &nbsp;{:.3}</b>{}<br><code>{path}</code></figcaption></figure>",
                 ri + 1,
-                escape(&rec.path.display().to_string()),
+                r.result.score,
+                r.result
+                    .verified
+                    .map_or(String::new(), |f| format!(", verified {:.0} %", 100.0 * f)),
+            )?;
+            write!(
+                details,
+                "<li><code>{path}</code>: score {:.3}, {} of {} query parts matched{}<ul>",
                 r.result.score,
                 r.result.matches.len(),
                 q.hypothesis(r.hypothesis).components.len(),
@@ -412,8 +449,39 @@ fn build(out: &Path, reader: &Reader, entries: &[QueryEntry], params: &ReportPar
                     String::new()
                 }
             )?;
+            for m in &r.result.matches {
+                write!(
+                    details,
+                    "<li><span class=\"sw\" style=\"background:{}\"></span>query part {} ↔ part {} (distance {:.3})</li>",
+                    hex(colors::distinct(m.query)),
+                    m.query,
+                    m.target,
+                    m.distance
+                )?;
+            }
+            details.push_str("</ul></li>");
         }
-        writeln!(h, "</table>")?;
+        if !e.results.is_empty() {
+            writeln!(h, "</div></div>")?;
+            writeln!(
+                h,
+                "<details><summary>matched parts of each result</summary><ul>{details}</ul></details>"
+            )?;
+        }
+        writeln!(
+            h,
+            "<details><summary>the query's {} parts</summary><ul>",
+            q.description.components.len()
+        )?;
+        for (i, c) in q.description.components.iter().enumerate() {
+            writeln!(
+                h,
+                "<li>part {i}: {:.1} % of the area, {} keypoints</li>",
+                c.area * 100.0,
+                c.keypoints
+            )?;
+        }
+        writeln!(h, "</ul></details>")?;
     }
     writeln!(h, "</body></html>")?;
     std::fs::write(out.join("index.html"), h)

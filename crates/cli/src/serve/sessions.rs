@@ -6,9 +6,9 @@ use std::sync::{Arc, Mutex};
 
 use keycomp_mesh::{Mesh, Point3};
 
-use super::shapes::WHOLE;
 use crate::colors;
 use crate::commands::query::AnalysisOut;
+use crate::report::paint_regions;
 
 /// Queries kept.
 pub(crate) const KEPT: usize = 16;
@@ -47,27 +47,26 @@ impl Session {
     }
 
     /// GLB of the mesh, the k-th of `parts` (of scale hypothesis `h`) in the palette's k-th
-    /// colour, grey elsewhere, as a shape's GLB is coloured (`Index::glb`, by vertex share
-    /// here); parts it does not have are skipped.
+    /// colour, grey elsewhere, painted as a shape's are (`paint_regions`, by share of the
+    /// vertices here); parts it does not have are skipped.
     pub(crate) fn glb(&self, h: usize, parts: &[usize]) -> Vec<u8> {
-        let mut cols = vec![colors::GREY; self.mesh.num_vertices()];
-        if let Some(hyp) = self.hypotheses.get(h) {
-            let n = self.mesh.num_vertices() as f32;
-            let part = |p: usize| hyp.get(p).map_or(&[][..], Vec::as_slice);
-            // as a shape's parts are painted: larger first, the whole surface not at all
-            let mut paint: Vec<(usize, usize)> = parts
+        let n = self.mesh.num_vertices();
+        let regions = match self.hypotheses.get(h) {
+            Some(hyp) => parts
                 .iter()
-                .copied()
                 .enumerate()
-                .filter(|&(_, p)| (part(p).len() as f32) < WHOLE * n)
-                .collect();
-            paint.sort_by_key(|&(_, p)| std::cmp::Reverse(part(p).len()));
-            for (k, p) in paint {
-                for &v in part(p) {
-                    cols[v as usize] = colors::distinct(k);
-                }
-            }
-        }
+                .filter_map(|(k, &p)| {
+                    let part = hyp.get(p)?;
+                    Some((
+                        part.len() as f64 / n as f64,
+                        part.clone(),
+                        colors::distinct(k),
+                    ))
+                })
+                .collect(),
+            None => Vec::new(),
+        };
+        let cols = paint_regions(n, regions, colors::GREY);
         keycomp_mesh::glb_bytes(&self.mesh, Some(&cols))
     }
 }

@@ -19,9 +19,6 @@ use crate::report::{index_surface, load_indexed, paint_parts, picture};
 
 /// Parts coloured in a GLB when the request lists none.
 pub(crate) const DEFAULT_PARTS: usize = 16;
-/// Parts covering at least this share of the surface (the whole-surface part) are not
-/// coloured.
-pub(crate) const WHOLE: f32 = 0.99;
 /// Side of a thumbnail, pixels.
 pub(crate) const THUMB_SIZE: u32 = 256;
 /// Analysed meshes kept in memory.
@@ -143,23 +140,18 @@ impl Index {
 
     /// GLB of shape `id` with `parts` (default: the first [`DEFAULT_PARTS`]) coloured, the
     /// k-th listed with the palette's k-th colour, larger parts under smaller ones; parts
-    /// covering the whole surface ([`WHOLE`]) are left grey.
+    /// covering the whole surface are left grey (`paint_parts`).
     pub(crate) fn glb(&self, id: u64, parts: Option<Vec<usize>>) -> Result<Vec<u8>, ApiError> {
         let snap = self.snapshot();
         let (record, loaded) = self.mesh(&snap, id)?;
         let (mesh, solver) = &*loaded;
         let parts =
             parts.unwrap_or_else(|| (0..record.components.len().min(DEFAULT_PARTS)).collect());
-        // larger parts first, so smaller ones stay visible on them; the whole surface, a part
-        // of every shape, would hide every other
-        let area = |p: usize| record.components.get(p).map_or(0.0, |c| c.area_fraction);
-        let mut paint: Vec<(usize, [u8; 3])> = parts
+        let paint: Vec<(usize, [u8; 3])> = parts
             .iter()
             .enumerate()
-            .filter(|&(_, &p)| area(p) < WHOLE)
             .map(|(k, &p)| (p, colors::distinct(k)))
             .collect();
-        paint.sort_by(|a, b| area(b.0).total_cmp(&area(a.0)));
         let cols = paint_parts(mesh, solver, &record, &paint, colors::GREY);
         Ok(keycomp_mesh::glb_bytes(mesh, Some(&cols)))
     }
