@@ -13,18 +13,29 @@ use keycomp_shapes::{Class, GenerateParams, generate};
 use rand::SeedableRng;
 use serde_json::Value;
 
-/// A running `keycomp serve`, stopped when dropped.
+/// A child process, stopped when dropped.
+struct Process(Child);
+
+impl Drop for Process {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// A running `keycomp serve` and its address.
 struct Server {
-    child: Child,
+    _process: Process,
     base: String,
 }
 
-impl Drop for Server {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
+/// WebGL on SwiftShader (no GPU), and the window of every screenshot.
+const WEBGL: [&str; 4] = [
+    "--use-gl=angle",
+    "--use-angle=swiftshader",
+    "--enable-unsafe-swiftshader",
+    "--window-size=1000,700",
+];
 
 /// Starts `keycomp serve` on a free port of 127.0.0.1 and waits for its address line.
 fn serve(index: &Path, extra: &[&str]) -> Server {
@@ -45,7 +56,10 @@ fn serve(index: &Path, extra: &[&str]) -> Server {
         .and_then(|t| t.split('/').next())
         .map(|a| format!("http://{a}"))
         .unwrap_or_else(|| panic!("no address in {line:?}"));
-    Server { child, base }
+    Server {
+        _process: Process(child),
+        base,
+    }
 }
 
 fn agent() -> ureq::Agent {
@@ -266,8 +280,35 @@ fn serve_answers_the_api_and_survives_hostile_uploads() {
         e["error"].as_str().unwrap().contains("unknown file format"),
         "{e}"
     );
-    let (status, e) = upload(&server, "/api/query", "huge.off", &vec![b'1'; 2 << 20]);
-    assert_eq!(status, 413, "{e}");
+    // a 1 GB body against the 1 MB cap: 413, or the connection closed while the client still
+    // sends (the server answers and stops reading); either way the server goes on
+    let boundary = "keycomp-test-boundary-7f3a";
+    let head = format!(
+        "--{boundary}\r\nContent-Disposition: form-data; name=\"file\"; filename=\"huge.off\"\r\n\r\n"
+    );
+    let mut body = std::io::Read::chain(
+        head.as_bytes(),
+        std::io::Read::take(std::io::repeat(b'1'), 1 << 30),
+    );
+    let t = std::time::Instant::now();
+    let huge = agent()
+        .post(&format!("{}/api/query", server.base))
+        .header(
+            "Content-Type",
+            &format!("multipart/form-data; boundary={boundary}"),
+        )
+        .send(ureq::SendBody::from_reader(&mut body));
+    match huge {
+        Ok(r) => assert_eq!(r.status().as_u16(), 413),
+        Err(e) => assert!(
+            matches!(e, ureq::Error::Io(_)),
+            "the huge upload failed otherwise: {e}"
+        ),
+    }
+    assert!(
+        t.elapsed().as_secs() < 30,
+        "the server read far past its cap"
+    );
     let (status, e) = upload(&server, "/api/query?k=0", "cut.off", truncated);
     assert_eq!(status, 400, "{e}");
     let mut r = agent()
@@ -320,11 +361,8 @@ fn pixels(png_bytes: &[u8]) -> (usize, Vec<[u8; 3]>) {
 fn screenshot(browser: &Path, tmp: &Path, file: &Path, url: &str) -> (usize, Vec<[u8; 3]>) {
     let profile = tempfile::tempdir_in(tmp).expect("profile folder");
     let out = headless(browser, profile.path())
+        .args(WEBGL)
         .args([
-            "--use-gl=angle",
-            "--use-angle=swiftshader",
-            "--enable-unsafe-swiftshader",
-            "--window-size=1000,700",
             "--virtual-time-budget=20000",
             &format!("--screenshot={}", file.display()),
             url,
@@ -333,6 +371,20 @@ fn screenshot(browser: &Path, tmp: &Path, file: &Path, url: &str) -> (usize, Vec
         .expect("chromium runs");
     assert!(file.is_file(), "{}", String::from_utf8_lossy(&out.stderr));
     pixels(&std::fs::read(file).expect("screenshot"))
+}
+
+/// Asserts that both halves of a screenshot `width` pixels wide (the query's pane and the
+/// result's) show coloured parts.
+fn both_panes_coloured(width: usize, px: &[[u8; 3]]) {
+    let (left, right): (Vec<_>, Vec<_>) = (0..px.len()).partition(|i| i % width < width / 2);
+    for (side, idx) in [("query", left), ("result", right)] {
+        let n = idx.iter().filter(|&&i| coloured(px[i])).count();
+        assert!(
+            n > idx.len() / 500,
+            "the {side} pane shows no coloured part: {n} of {} pixels",
+            idx.len()
+        );
+    }
 }
 
 /// A saturated pixel: a part's colour (the page itself is black, white and greys).
@@ -373,15 +425,7 @@ fn the_app_draws_in_a_browser() {
         &shots.join("similar.png"),
         &format!("{}/#similar=0&open=2", server.base),
     );
-    let (left, right): (Vec<_>, Vec<_>) = (0..px.len()).partition(|i| i % width < width / 2);
-    for (side, idx) in [("query", left), ("result", right)] {
-        let n = idx.iter().filter(|&&i| coloured(px[i])).count();
-        assert!(
-            n > idx.len() / 500,
-            "the {side} pane shows no coloured part: {n} of {} pixels",
-            idx.len()
-        );
-    }
+    both_panes_coloured(width, &px);
 
     // a shape opened alone
     let (_, px) = screenshot(
@@ -396,4 +440,173 @@ fn the_app_draws_in_a_browser() {
         "the 3D view shows no coloured part: {n} of {} pixels",
         px.len()
     );
+}
+
+/// A page of headless Chromium driven through the DevTools protocol (its websocket): for what
+/// a command-line flag cannot do, such as dropping a file on the page.
+struct Devtools {
+    _browser: Process,
+    ws: tungstenite::WebSocket<tungstenite::stream::MaybeTlsStream<std::net::TcpStream>>,
+    session: String,
+    next: u64,
+}
+
+impl Devtools {
+    /// Opens `url` in a new headless `browser` with a fresh profile in `profile`.
+    fn open(browser: &Path, profile: &Path, url: &str) -> Devtools {
+        let mut child = Command::new(browser)
+            .args([
+                "--headless",
+                "--no-sandbox",
+                "--no-first-run",
+                "--disable-background-networking",
+                "--disable-component-update",
+                "--disable-sync",
+                "--remote-debugging-port=0",
+                "about:blank",
+            ])
+            .args(WEBGL)
+            .arg(format!("--user-data-dir={}", profile.display()))
+            .stderr(Stdio::piped())
+            .stdout(Stdio::null())
+            .spawn()
+            .expect("chromium runs");
+        let mut lines = BufReader::new(child.stderr.take().expect("stderr")).lines();
+        let ws_url = lines
+            .by_ref()
+            .map_while(Result::ok)
+            .find_map(|l| {
+                l.split_once("DevTools listening on ")
+                    .map(|(_, u)| u.trim().to_string())
+            })
+            .expect("chromium prints its DevTools address");
+        // keep reading its stderr so that it never blocks on a full pipe
+        std::thread::spawn(move || lines.for_each(drop));
+        let (ws, _) = tungstenite::connect(ws_url.as_str()).expect("DevTools websocket");
+        let mut d = Devtools {
+            _browser: Process(child),
+            ws,
+            session: String::new(),
+            next: 0,
+        };
+        let target = d.call("Target.createTarget", serde_json::json!({ "url": url }));
+        let attached = d.call(
+            "Target.attachToTarget",
+            serde_json::json!({ "targetId": target["targetId"], "flatten": true }),
+        );
+        d.session = attached["sessionId"].as_str().expect("session").to_string();
+        d
+    }
+
+    /// Calls `method` (on the page once attached) and returns its result.
+    fn call(&mut self, method: &str, params: Value) -> Value {
+        self.next += 1;
+        let mut msg = serde_json::json!({ "id": self.next, "method": method, "params": params });
+        if !self.session.is_empty() {
+            msg["sessionId"] = Value::String(self.session.clone());
+        }
+        self.ws
+            .send(tungstenite::Message::text(msg.to_string()))
+            .expect("sends");
+        loop {
+            let text = match self.ws.read().expect("reads") {
+                tungstenite::Message::Text(t) => t,
+                _ => continue,
+            };
+            let answer: Value = serde_json::from_str(text.as_str()).expect("JSON");
+            if answer["id"] == self.next {
+                assert!(answer["error"].is_null(), "{method}: {answer}");
+                return answer["result"].clone();
+            }
+        }
+    }
+
+    /// The value of the JavaScript expression `js` (awaited when it is a promise).
+    fn eval(&mut self, js: &str) -> Value {
+        let r = self.call(
+            "Runtime.evaluate",
+            serde_json::json!({ "expression": js, "awaitPromise": true, "returnByValue": true }),
+        );
+        assert!(r["exceptionDetails"].is_null(), "{js}: {r}");
+        r["result"]["value"].clone()
+    }
+
+    /// Waits up to `seconds` for `js` to be true.
+    fn wait_for(&mut self, js: &str, seconds: u64) {
+        let until = std::time::Instant::now() + std::time::Duration::from_secs(seconds);
+        while self.eval(js) != Value::Bool(true) {
+            assert!(
+                std::time::Instant::now() < until,
+                "timed out waiting for {js}"
+            );
+            std::thread::sleep(std::time::Duration::from_millis(200));
+        }
+    }
+}
+
+/// A fragment dropped on the page (as a user drags a file from the desktop): the results list
+/// its source first, and the first result opened draws the query and the source side by side
+/// with matched parts coloured. The screenshot is kept in `target/tmp/serve-screenshots/`.
+/// Skipped without Chromium.
+#[test]
+fn a_fragment_dropped_on_the_page_lists_its_source_first() {
+    use base64::Engine as _;
+    let Some(browser) = chromium() else {
+        eprintln!("skipping the browser check: no chromium found (apt-get install chromium)");
+        return;
+    };
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let (index, meshes) = collection(tmp.path(), &[Class::Octopus, Class::Mug, Class::Humanoid]);
+    let server = serve(&index, &[]);
+    let (source_name, source) = &meshes[1];
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+    let fragment =
+        keycomp_fragment::cut_fragment(source, keycomp_fragment::PartialKind::Plane, 0.6, &mut rng)
+            .expect("cuts");
+    let text = String::from_utf8(off_bytes(&fragment.mesh)).expect("OFF is text");
+
+    let mut page = Devtools::open(
+        &browser,
+        &tmp.path().join("profile"),
+        &format!("{}/", server.base),
+    );
+    page.wait_for(
+        "document.querySelectorAll('#shape-grid .card').length === 6",
+        60,
+    );
+    page.eval(&format!(
+        "(() => {{ const dt = new DataTransfer(); \
+           dt.items.add(new File([{}], 'piece.off')); \
+           document.getElementById('drop').dispatchEvent(new DragEvent('drop', \
+             {{ dataTransfer: dt, bubbles: true, cancelable: true }})); return true; }})()",
+        serde_json::to_string(&text).expect("JSON string")
+    ));
+    page.wait_for(
+        "document.querySelectorAll('#result-grid .card').length > 0",
+        120,
+    );
+    let first = page.eval("document.querySelector('#result-grid .card').title");
+    let first = first.as_str().expect("a path");
+    assert!(
+        first.ends_with(&format!("{source_name}.off")),
+        "first result {first}, not {source_name}"
+    );
+    page.eval("document.querySelector('#result-grid .card').click(), true");
+    page.wait_for(
+        "document.querySelectorAll('#view3d .pane[data-loaded=\"1\"]').length === 2",
+        60,
+    );
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    let shot = page.call(
+        "Page.captureScreenshot",
+        serde_json::json!({ "format": "png" }),
+    );
+    let png_bytes = base64::engine::general_purpose::STANDARD
+        .decode(shot["data"].as_str().expect("data"))
+        .expect("base64");
+    let shots = Path::new(env!("CARGO_TARGET_TMPDIR")).join("serve-screenshots");
+    std::fs::create_dir_all(&shots).expect("mkdir");
+    std::fs::write(shots.join("dropped-fragment.png"), &png_bytes).expect("writes");
+    let (width, px) = pixels(&png_bytes);
+    both_panes_coloured(width, &px);
 }
