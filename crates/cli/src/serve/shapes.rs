@@ -11,6 +11,7 @@ use keycomp_geodesic::GeodesicSolver;
 use keycomp_index::{ShapeId, ShapeRecord};
 use keycomp_mesh::Mesh;
 use keycomp_surface::SurfaceParams;
+use rayon::prelude::*;
 use serde::Serialize;
 
 use super::ApiError;
@@ -54,17 +55,25 @@ impl Snapshot {
     pub(crate) fn rows(&self) -> Result<&[Row], ApiError> {
         self.rows
             .get_or_init(|| {
-                let shapes = self.reader.shapes().map_err(|e| e.to_string())?;
-                Ok(shapes
-                    .into_iter()
-                    .map(|s| Row {
-                        id: s.id.0,
-                        path: s.record.path.display().to_string(),
-                        vertices: s.record.vertex_count,
-                        faces: s.record.face_count,
-                        parts: s.record.components.len(),
+                // one record at a time per thread: a listing must not hold every record (about
+                // 50 kB each with its layout and sample) at once
+                let ids: Vec<ShapeId> = self.reader.ids().collect();
+                ids.par_iter()
+                    .map(|&id| {
+                        let r = self
+                            .reader
+                            .get(id)
+                            .map_err(|e| e.to_string())?
+                            .ok_or_else(|| format!("shape {id} vanished from its snapshot"))?;
+                        Ok(Row {
+                            id: id.0,
+                            path: r.path.display().to_string(),
+                            vertices: r.vertex_count,
+                            faces: r.face_count,
+                            parts: r.components.len(),
+                        })
                     })
-                    .collect())
+                    .collect()
             })
             .as_deref()
             .map_err(|e| ApiError::internal(e.clone()))
