@@ -8,8 +8,8 @@
 //! `cargo bench -p keycomp-retrieval --bench query_scale -- [SIZES] [INDEX] [QUERIES]`
 //! (SIZES: comma-separated shape counts, default 1000,10000,100000; INDEX: an index directory to
 //! take records from; QUERIES: queries per size, default 20; `SCALE_DIR=DIR` puts the grown
-//! indexes in DIR instead of the temporary folder, and `SCALE_KEEP=1` keeps them there). Prints a markdown table, medians over the
-//! queries: the time to write the index (5,000 shapes per `add_batch`) and its size; the
+//! indexes in DIR instead of the temporary folder, and `SCALE_KEEP=1` keeps them there).
+//! Prints a markdown table, medians over the queries: the time to write the index (5,000 shapes per `add_batch`) and its size; the
 //! memory-mapped open (`IndexReader::open_mapped`, median of 5); the search structure's build
 //! (by a first reader, which writes the search cache), its reading from the search cache by a
 //! second reader (which answers the queries), its update by a reader after 1 % more shapes were
