@@ -30,7 +30,11 @@ async function api(url, options) {
 
 async function loadInfo() {
   const info = await api("/api/index");
-  $("info").textContent = info.dir + " · " + info.shapes + " shapes";
+  // how the index measures shapes (queries are analysed the same way)
+  const p = info.profile || {}, units = (p.describe && p.describe.units) || {};
+  const measure = units.kind === "file" ? `file units (length ${units.length})` : "scale-free";
+  $("info").textContent = `${info.dir} · ${info.shapes} shapes · ${measure}` +
+    (p.surface ? " · canonical surfaces" : "");
 }
 
 async function loadPage() {
