@@ -90,21 +90,25 @@ fn json(bytes: &[u8]) -> Value {
         .unwrap_or_else(|e| panic!("not JSON ({e}): {}", String::from_utf8_lossy(bytes)))
 }
 
-/// POST `path` with `file` as the multipart field `file` named `name`: status and JSON.
-fn upload(server: &Server, path: &str, name: &str, file: &[u8]) -> (u16, Value) {
-    let boundary = "keycomp-test-boundary-7f3a";
+const BOUNDARY: &str = "keycomp-test-boundary-7f3a";
+
+/// A multipart body carrying `file` as the field `file` named `name`, and its content type.
+fn multipart(name: &str, file: &[u8]) -> (Vec<u8>, String) {
     let mut body = format!(
-        "--{boundary}\r\nContent-Disposition: form-data; name=\"file\"; filename=\"{name}\"\r\nContent-Type: application/octet-stream\r\n\r\n"
+        "--{BOUNDARY}\r\nContent-Disposition: form-data; name=\"file\"; filename=\"{name}\"\r\nContent-Type: application/octet-stream\r\n\r\n"
     )
     .into_bytes();
     body.extend_from_slice(file);
-    body.extend_from_slice(format!("\r\n--{boundary}--\r\n").as_bytes());
+    body.extend_from_slice(format!("\r\n--{BOUNDARY}--\r\n").as_bytes());
+    (body, format!("multipart/form-data; boundary={BOUNDARY}"))
+}
+
+/// POST `path` with `file` as the multipart field `file` named `name`: status and JSON.
+fn upload(server: &Server, path: &str, name: &str, file: &[u8]) -> (u16, Value) {
+    let (body, kind) = multipart(name, file);
     let mut r = agent()
         .post(&format!("{}{path}", server.base))
-        .header(
-            "Content-Type",
-            &format!("multipart/form-data; boundary={boundary}"),
-        )
+        .header("Content-Type", &kind)
         .send(&body[..])
         .expect("POST answers");
     let status = r.status().as_u16();
@@ -282,9 +286,8 @@ fn serve_answers_the_api_and_survives_hostile_uploads() {
     );
     // a 1 GB body against the 1 MB cap: 413, or the connection closed while the client still
     // sends (the server answers and stops reading); either way the server goes on
-    let boundary = "keycomp-test-boundary-7f3a";
     let head = format!(
-        "--{boundary}\r\nContent-Disposition: form-data; name=\"file\"; filename=\"huge.off\"\r\n\r\n"
+        "--{BOUNDARY}\r\nContent-Disposition: form-data; name=\"file\"; filename=\"huge.off\"\r\n\r\n"
     );
     let mut body = std::io::Read::chain(
         head.as_bytes(),
@@ -295,7 +298,7 @@ fn serve_answers_the_api_and_survives_hostile_uploads() {
         .post(&format!("{}/api/query", server.base))
         .header(
             "Content-Type",
-            &format!("multipart/form-data; boundary={boundary}"),
+            &format!("multipart/form-data; boundary={BOUNDARY}"),
         )
         .send(ureq::SendBody::from_reader(&mut body));
     match huge {
@@ -609,4 +612,78 @@ fn a_fragment_dropped_on_the_page_lists_its_source_first() {
     std::fs::write(shots.join("dropped-fragment.png"), &png_bytes).expect("writes");
     let (width, px) = pixels(&png_bytes);
     both_panes_coloured(width, &px);
+}
+
+/// The `keycomp query` processes the server `pid` is running (Linux: from `/proc`).
+fn query_children(pid: u32) -> Vec<u32> {
+    let Ok(dir) = std::fs::read_dir("/proc") else {
+        return Vec::new();
+    };
+    dir.filter_map(|e| e.ok()?.file_name().to_str()?.parse::<u32>().ok())
+        .filter(|p| {
+            let stat = std::fs::read_to_string(format!("/proc/{p}/stat")).unwrap_or_default();
+            // the parent is the 4th field, after the command in parentheses
+            let parent = stat
+                .rsplit_once(')')
+                .and_then(|(_, rest)| rest.split_whitespace().nth(1)?.parse::<u32>().ok());
+            parent == Some(pid)
+        })
+        .collect()
+}
+
+/// A query that outlives `--timeout` is answered 504 and its process stopped; a query whose
+/// client goes away is stopped too; the server goes on answering.
+#[test]
+fn slow_and_abandoned_queries_are_stopped() {
+    if !Path::new("/proc/self/stat").exists() {
+        eprintln!("skipping: needs /proc to see the server's child processes");
+        return;
+    }
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let (index, _) = collection(tmp.path(), &[Class::Mug]);
+    let server = serve(&index, &["--timeout", "1"]);
+    let pid = server._process.0.id();
+    // a sphere of 655,362 vertices: seconds of analysis on any machine
+    let big = off_bytes(&keycomp_mesh::synth::icosphere(8, 1.0));
+
+    let t = std::time::Instant::now();
+    let (status, e) = upload(&server, "/api/query", "sphere.off", &big);
+    assert_eq!(status, 504, "{e}");
+    assert!(
+        e["error"].as_str().unwrap().contains("longer than 1 s"),
+        "{e}"
+    );
+    assert!(t.elapsed().as_secs() < 30);
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    assert_eq!(
+        query_children(pid),
+        Vec::<u32>::new(),
+        "the timed-out query still runs"
+    );
+
+    // a client that goes away while its query runs
+    let (body, kind) = multipart("sphere.off", &big);
+    let addr = server.base.trim_start_matches("http://");
+    let mut client = std::net::TcpStream::connect(addr).expect("connects");
+    std::io::Write::write_all(
+        &mut client,
+        format!(
+            "POST /api/query HTTP/1.1\r\nHost: {addr}\r\nContent-Type: {kind}\r\nContent-Length: {}\r\n\r\n",
+            body.len()
+        )
+        .as_bytes(),
+    )
+    .expect("sends");
+    std::io::Write::write_all(&mut client, &body).expect("sends");
+    let wait = |running: bool, what: &str| {
+        let until = std::time::Instant::now() + std::time::Duration::from_secs(20);
+        while query_children(pid).is_empty() == running {
+            assert!(std::time::Instant::now() < until, "{what}");
+            std::thread::sleep(std::time::Duration::from_millis(50));
+        }
+    };
+    wait(true, "the query never started");
+    drop(client);
+    wait(false, "the abandoned query still runs");
+    assert_eq!(get(&server, "/api/index").0, 200);
 }
