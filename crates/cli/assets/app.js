@@ -90,16 +90,8 @@ async function showResults(answer) {
   $("results-title").textContent = `Results for ${answer.query}`;
   const grid = $("result-grid");
   grid.replaceChildren();
-  // results name shapes by path: find their ids
-  const page = await api(`/api/shapes?limit=500&filter=`);
-  const byPath = new Map(page.shapes.map((s) => [s.path, s.id]));
   for (const hit of answer.results) {
-    let id = byPath.get(hit.path);
-    if (id === undefined) {
-      const found = await api(`/api/shapes?limit=500&filter=${encodeURIComponent(hit.path)}`);
-      const s = found.shapes.find((s) => s.path === hit.path);
-      id = s && s.id;
-    }
+    const id = hit.id == null ? undefined : hit.id;
     const verified = hit.verified == null ? "" : `, verified ${(100 * hit.verified).toFixed(0)} %`;
     const card = el("div", { className: "card result", title: hit.path },
       el("img", { src: id === undefined ? "" : `/api/shapes/${id}/thumb.png`, alt: hit.path }),

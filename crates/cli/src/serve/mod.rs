@@ -15,7 +15,8 @@
 //!   `DIR/thumbnails/` under the file's content hash (so a changed file gets a new one).
 //! - `POST /api/query?k=10&verify=auto`: the multipart field `file` (its name's extension
 //!   picks the reader, as for `keycomp query`) ranked against the index; the answer is what
-//!   `keycomp query --json` prints, with `session`: the number the query's mesh is kept under.
+//!   `keycomp query --json` prints, with `session` (the number the query's mesh is kept under)
+//!   and each result's shape `id`.
 //! - `GET /api/queries/{session}/mesh.glb?hypothesis=0&parts=3,7`: that query's analysed mesh,
 //!   its listed parts (`query_component`s of scale hypothesis `hypothesis`) coloured as a
 //!   shape's are: the k-th listed part of the query and the k-th of a shape share a colour.
