@@ -224,6 +224,7 @@ fn serve_answers_the_api_and_survives_hostile_uploads() {
     );
     assert_eq!(status, 200, "{answer}");
     assert_eq!(answer["query"], "piece_of_a_mug.off");
+    assert!(answer["warnings"].is_array(), "{answer}");
     let top = answer["results"][0]["path"].as_str().expect("a result");
     let top_id = answer["results"][0]["id"].as_u64().expect("its shape id");
     let (_, body) = get(&server, &format!("/api/shapes/{top_id}"));

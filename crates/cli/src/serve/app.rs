@@ -484,20 +484,19 @@ async fn run_query(
     // each result's shape id, for the shape routes (the index may have committed since the
     // query read it: a path it no longer has gets none)
     let snap = state.index.snapshot();
-    let ids: std::collections::HashMap<String, u64> = blocking(move || {
-        Ok(snap
-            .rows()?
-            .iter()
-            .map(|r| (r.path.clone(), r.id))
-            .collect())
+    let mut answer = blocking(move || {
+        if let Some(results) = answer["results"].as_array_mut() {
+            for hit in results {
+                let id = match hit["path"].as_str() {
+                    Some(p) => snap.id_of(p)?,
+                    None => None,
+                };
+                hit["id"] = serde_json::json!(id);
+            }
+        }
+        Ok(answer)
     })
     .await?;
-    if let Some(results) = answer["results"].as_array_mut() {
-        for hit in results {
-            let id = hit["path"].as_str().and_then(|p| ids.get(p)).copied();
-            hit["id"] = serde_json::json!(id);
-        }
-    }
     let warnings: Vec<String> = String::from_utf8_lossy(&out.stderr)
         .lines()
         .filter_map(|l| l.strip_prefix("warning: "))

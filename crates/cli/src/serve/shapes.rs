@@ -48,6 +48,8 @@ pub(crate) struct Snapshot {
     pub(crate) surface: Option<SurfaceParams>,
     /// The listing, built on first use.
     rows: std::sync::OnceLock<Result<Vec<Row>, String>>,
+    /// Shape ids by path, built from the listing on first use.
+    ids: std::sync::OnceLock<std::collections::HashMap<String, u64>>,
 }
 
 impl Snapshot {
@@ -77,6 +79,15 @@ impl Snapshot {
             })
             .as_deref()
             .map_err(|e| ApiError::internal(e.clone()))
+    }
+
+    /// The id of the shape indexed under `path` (as a query's results name it), if any.
+    pub(crate) fn id_of(&self, path: &str) -> Result<Option<u64>, ApiError> {
+        let rows = self.rows()?;
+        let ids = self
+            .ids
+            .get_or_init(|| rows.iter().map(|r| (r.path.clone(), r.id)).collect());
+        Ok(ids.get(path).copied())
     }
 
     /// The record of shape `id`, or 404.
@@ -194,6 +205,7 @@ fn open_snapshot(dir: &Path) -> Result<Snapshot, String> {
         surface: index_surface(&reader),
         reader,
         rows: std::sync::OnceLock::new(),
+        ids: std::sync::OnceLock::new(),
     })
 }
 
