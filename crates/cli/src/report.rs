@@ -223,16 +223,16 @@ pub(crate) const WHOLE: f64 = 0.99;
 /// Per-vertex colours of a mesh of `n` vertices: `base`, then each region `(share of the
 /// surface, vertices, colour)` painted larger first, so smaller ones stay visible on them;
 /// regions covering the whole surface ([`WHOLE`]) are skipped.
-pub(crate) fn paint_regions(
+pub(crate) fn paint_regions<R: AsRef<[VertexId]>>(
     n: usize,
-    mut regions: Vec<(f64, Vec<VertexId>, [u8; 3])>,
+    mut regions: Vec<(f64, R, [u8; 3])>,
     base: [u8; 3],
 ) -> Vec<[u8; 3]> {
     regions.retain(|r| r.0 < WHOLE);
     regions.sort_by(|a, b| b.0.total_cmp(&a.0));
     let mut cols = vec![base; n];
     for (_, vertices, col) in regions {
-        for v in vertices {
+        for &v in vertices.as_ref() {
             if let Some(c) = cols.get_mut(v as usize) {
                 *c = col;
             }
@@ -277,7 +277,11 @@ pub(crate) fn paint_query_parts(
     let parts = &q.hypothesis(h).components;
     let regions = paint
         .iter()
-        .filter_map(|&(part, col)| parts.get(part).map(|c| (c.area, c.vertices.clone(), col)))
+        .filter_map(|&(part, col)| {
+            parts
+                .get(part)
+                .map(|c| (c.area, c.vertices.as_slice(), col))
+        })
         .collect();
     paint_regions(q.mesh.num_vertices(), regions, base)
 }

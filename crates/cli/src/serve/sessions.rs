@@ -59,7 +59,7 @@ impl Session {
                     let part = hyp.get(p)?;
                     Some((
                         part.len() as f64 / n as f64,
-                        part.clone(),
+                        part.as_slice(),
                         colors::distinct(k),
                     ))
                 })
