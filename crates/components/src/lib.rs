@@ -31,7 +31,7 @@ pub use grow::{Component, RegionGrower, geodesic_center};
 pub use params::{ComponentParams, Preset};
 pub use pipeline::{
     DetectError, DetectParams, Detection, Extracted, ExtractedComponent, GeodesicOptions,
-    KeyComponent, Timings, detect, extract_components, keypoint_distances,
+    KeyComponent, Proxy, Timings, detect, extract_components, geodesic_proxy, keypoint_distances,
 };
 pub use smacof::{Embedding, SmacofParams, UpperTriangle, smacof, smacof_upper};
 pub use sphere::{Sphere, SphereRule, min_enclosing_sphere, spread_sphere};

@@ -73,6 +73,7 @@
 //! front (the time and the repeatability are in BENCHMARKS.md, *Detection* and
 //! *Repeatability*).
 
+use std::sync::Arc;
 use std::time::Instant;
 
 use keycomp_geodesic::{
@@ -360,6 +361,8 @@ pub struct Detection {
     pub unclustered: Vec<VertexId>,
     /// The key-components.
     pub components: Vec<KeyComponent>,
+    /// The proxy the fronts ran on, when they ran on one (shared with description).
+    pub proxy: Option<Arc<Proxy>>,
     /// Time per stage.
     pub timings: Timings,
 }
@@ -384,8 +387,8 @@ pub fn detect(mesh: &Mesh, params: &DetectParams) -> Result<Detection, DetectErr
     let t_harris = ms(t);
 
     let t = Instant::now();
-    let (dist, geodesic_vertices, t_simplify) =
-        keypoint_distances(&norm, &topo, &harris.keypoints, &params.geodesic)?;
+    let (dist, geodesic_vertices, t_simplify, proxy) =
+        keypoint_distances_with_proxy(&norm, &topo, &harris.keypoints, &params.geodesic)?;
     let t_geodesic = ms(t);
 
     let t = Instant::now();
@@ -443,6 +446,7 @@ pub fn detect(mesh: &Mesh, params: &DetectParams) -> Result<Detection, DetectErr
         geodesic_vertices,
         unclustered,
         components,
+        proxy: proxy.map(Arc::new),
         timings: Timings {
             harris: t_harris,
             geodesic: t_geodesic,
@@ -547,6 +551,53 @@ pub fn extract_components(
     })
 }
 
+/// The simplified proxy a detection's fronts ran on (see *Geodesic proxy* in the module docs):
+/// the unit-area mesh simplified to [`Proxy::target`] vertices in [`Proxy::cells`] cells with
+/// the keypoints protected. Description runs on it too (`keycomp_describe`), so the two share
+/// one simplification.
+#[derive(Debug, Clone)]
+pub struct Proxy {
+    /// The vertex budget it was simplified to ([`GeodesicOptions::proxy_vertices`]).
+    pub target: usize,
+    /// How many cells the simplification ran in ([`GeodesicOptions::proxy_cells`]).
+    pub cells: usize,
+    /// The simplified mesh and, per proxy vertex, the input vertex it is.
+    pub simplified: simplify::Simplified,
+}
+
+/// The proxy of the unit-area mesh `norm` (adjacency `topo`) with `keypoints` protected, as
+/// `options` ask for it; `None` when they ask for none or the mesh has at most
+/// [`GeodesicOptions::proxy_vertices`] referenced vertices, and when a keypoint lost all its
+/// faces to simplification (a dangling face on non-manifold input: the fronts then run on the
+/// mesh itself).
+pub fn geodesic_proxy(
+    norm: &Mesh,
+    topo: &Topology,
+    keypoints: &[VertexId],
+    options: &GeodesicOptions,
+) -> Option<Proxy> {
+    if options.proxy_vertices == 0 {
+        return None;
+    }
+    let referenced = (0..norm.num_vertices() as VertexId)
+        .filter(|&v| !topo.faces_of(v).is_empty())
+        .count();
+    if referenced <= options.proxy_vertices {
+        return None;
+    }
+    let cells = options.proxy_cells(referenced);
+    let simplified =
+        simplify::simplify_in_cells(norm, topo, options.proxy_vertices, keypoints, cells);
+    keypoints
+        .iter()
+        .all(|&k| simplified.proxy_vertex(k).is_some())
+        .then_some(Proxy {
+            target: options.proxy_vertices,
+            cells,
+            simplified,
+        })
+}
+
 /// Step 3: the K×K distance matrix of `keypoints` on `mesh` or on its proxy (see the module
 /// docs), with the vertex count of the mesh the fronts ran on and the milliseconds spent
 /// simplifying. Falls back to the full mesh in the one case where a protected keypoint can lose
@@ -557,35 +608,39 @@ pub fn keypoint_distances(
     keypoints: &[VertexId],
     options: &GeodesicOptions,
 ) -> Result<(DistanceMatrix, usize, f64), DetectError> {
+    keypoint_distances_with_proxy(mesh, topo, keypoints, options).map(|(d, n, t, _)| (d, n, t))
+}
+
+/// [`keypoint_distances`], also returning the proxy the fronts ran on (if any).
+fn keypoint_distances_with_proxy(
+    mesh: &Mesh,
+    topo: &Topology,
+    keypoints: &[VertexId],
+    options: &GeodesicOptions,
+) -> Result<(DistanceMatrix, usize, f64, Option<Proxy>), DetectError> {
     options.validate()?;
     let params = options.solver_params();
-    let referenced = (0..mesh.num_vertices() as VertexId)
-        .filter(|&v| !topo.faces_of(v).is_empty())
-        .count();
-    if options.proxy_vertices > 0 && referenced > options.proxy_vertices {
-        let t = Instant::now();
-        let proxy = simplify::simplify_in_cells(
-            mesh,
-            topo,
-            options.proxy_vertices,
-            keypoints,
-            options.proxy_cells(referenced),
-        );
-        let sources: Option<Vec<VertexId>> =
-            keypoints.iter().map(|&k| proxy.proxy_vertex(k)).collect();
-        let t_simplify = ms(t);
-        if let Some(sources) = sources {
-            let ptopo = Topology::new(&proxy.mesh);
-            let solver = GeodesicSolver::with_params(&proxy.mesh, &ptopo, params)?;
-            let dist = matrix(&solver, &proxy.mesh, &sources, options)?;
-            return Ok((dist, proxy.mesh.num_vertices(), t_simplify));
-        }
+    let t = Instant::now();
+    let proxy = geodesic_proxy(mesh, topo, keypoints, options);
+    let t_simplify = if proxy.is_some() { ms(t) } else { 0.0 };
+    if let Some(p) = proxy {
+        let sources: Vec<VertexId> = keypoints
+            .iter()
+            .filter_map(|&k| p.simplified.proxy_vertex(k))
+            .collect();
+        let pmesh = &p.simplified.mesh;
+        let ptopo = Topology::new(pmesh);
+        let solver = GeodesicSolver::with_params(pmesh, &ptopo, params)?;
+        let dist = matrix(&solver, pmesh, &sources, options)?;
+        let nv = pmesh.num_vertices();
+        return Ok((dist, nv, t_simplify, Some(p)));
     }
     let solver = GeodesicSolver::with_params(mesh, topo, params)?;
     Ok((
         matrix(&solver, mesh, keypoints, options)?,
         mesh.num_vertices(),
-        0.0,
+        t_simplify,
+        None,
     ))
 }
 

@@ -19,6 +19,7 @@ use crate::levels::{choose_parts, whole_level};
 use crate::params::{
     DescribeParams, MAX_LEVELS, MAX_PATCHES_PER_LEVEL, MAX_SMOOTHING_ITERATIONS, Units,
 };
+use crate::proxy::{OnProxy, on_proxy};
 use crate::surface::{Surface, prepare};
 
 /// Points of a description's surface sample ([`ShapeDescription::sample`]).
@@ -115,7 +116,10 @@ pub fn describe_all(
     for params in all {
         check(mesh, det, params)?;
     }
-    let (surface, boundary, solver) = prepare(mesh, det, first)?;
+    let proxy = on_proxy(mesh, det, first);
+    let (on_mesh, on_det) = proxy.as_ref().map_or((mesh, det), |p| (&p.mesh, &p.det));
+    let area = keycomp_mesh::geometry::total_area(mesh);
+    let (surface, boundary, solver) = prepare(on_mesh, area, on_det, first)?;
     let fronts = Fronts::new(&solver);
     all.iter()
         .map(|params| {
@@ -124,12 +128,44 @@ pub fn describe_all(
                 ..first.clone()
             } == *params;
             if same_surface {
-                describe_parts(&surface, &boundary, det, params, &fronts)
+                let desc = describe_parts(&surface, &boundary, on_det, params, &fronts)?;
+                Ok(match &proxy {
+                    Some(p) => lift(desc, p, det, whole_level(params)),
+                    None => desc,
+                })
             } else {
                 describe_with(mesh, det, params)
             }
         })
         .collect()
+}
+
+/// `desc`, described on the proxy `on`, in the input's vertex ids (crate documentation,
+/// *Proxy*): a centre is a survivor and keeps its input id, a patch holds the input vertices
+/// its survivors stand for, a key-component its own vertices (from `det`, the input's
+/// detection) and the whole surface (level `whole_level`) all of them.
+fn lift(
+    mut desc: ShapeDescription,
+    on: &OnProxy,
+    det: &Detection,
+    whole_level: u8,
+) -> ShapeDescription {
+    for part in &mut desc.components {
+        let center = on.input_vertex(part.center);
+        part.vertices = if part.level == 0 {
+            det.components
+                .iter()
+                .find(|c| c.center == center)
+                .map_or_else(Vec::new, |c| c.vertices.clone())
+        } else if part.level == whole_level {
+            (0..on.n as u32).collect()
+        } else {
+            on.input_vertices(&part.vertices)
+        };
+        part.center = center;
+    }
+    desc.boundary_vertices = on.boundary_vertices;
+    desc
 }
 
 /// Refuses a detection that is not `mesh`'s and parameters that ask for unbounded work.
@@ -168,6 +204,13 @@ fn check(mesh: &Mesh, det: &Detection, params: &DescribeParams) -> Result<(), De
         return Err(DescribeError::Params(format!(
             "at most {MAX_SMOOTHING_ITERATIONS} smoothing iterations, got {}",
             params.smoothing_iterations
+        )));
+    }
+    let min = keycomp_components::GeodesicOptions::MIN_PROXY_VERTICES;
+    if params.proxy_vertices != 0 && params.proxy_vertices < min {
+        return Err(DescribeError::Params(format!(
+            "the proxy's vertex budget must be 0 or at least {min}, got {}",
+            params.proxy_vertices
         )));
     }
     if let Units::File { length } = params.units

@@ -48,9 +48,24 @@
 //! version 2). Smoothing before measuring is a choice of ours, not the paper's (the paper does
 //! not describe components).
 //!
-//! Cost: 60 smoothing passes over the whole mesh, a Harris fit per vertex as costly as
-//! detection's own, one fast-marching front per distinct part centre (kept for the layout: with
-//! the defaults about 100 fronts of |V| `f64` each, about 100 MB at 134k vertices; the
+//! # Proxy
+//!
+//! With [`DescribeParams::proxy_vertices`] = N > 0 (off by default), a mesh of more than N
+//! vertices is described on a simplified proxy of about N: the one detection's fronts ran on
+//! (`keycomp_components::Proxy`, half-edge collapses with the keypoints protected, survivors at
+//! their input positions) when it has the same budget, else the same simplification made
+//! anew, so detection and description can share one. The parts are chosen and described there
+//! and lifted back to the input's vertex ids (a patch holds the input vertices whose nearest
+//! survivor along the edges is in it; a key-component keeps its own vertices). It bounds
+//! description's cost on meshes of any size (at N = 10,000, 0.25–0.45 of detection's time on
+//! meshes of 28,000–60,000 vertices instead of 1.2×), but it is not the default: a source
+//! described on a coarser surface than its fragments no longer matches them (TOSCA's scan
+//! fragments, whose sources have about 25,000 vertices: NN 0.833 → 0.639; BENCHMARKS.md,
+//! *Ablations*).
+//!
+//! Cost: 60 smoothing passes over the described surface (the mesh or its proxy), a Harris fit
+//! per vertex, one fast-marching front per distinct part centre (kept for the layout: with the
+//! defaults 30–40 fronts of |V| `f64` each, about 3 MB at the proxy's 10,000 vertices; the
 //! parameters are bounded by [`MAX_LEVELS`], [`MAX_PATCHES_PER_LEVEL`] and
 //! [`MAX_SMOOTHING_ITERATIONS`]), plus linear passes over each part's vertices and [`PAIRS`]
 //! draws per part. The levels choose their centres in parallel and the parts' fronts and
@@ -62,6 +77,8 @@
 //! One module per step, in the order they run:
 //!
 //! - `params`: [`DescribeParams`], [`Units`] and the bounds on the work they ask for;
+//! - `proxy`: the simplified proxy a large mesh is described on, and the way back to its
+//!   vertex ids;
 //! - `surface`: the described surface (scaled to the length unit, smoothed, its Harris fits,
 //!   normals, curvatures and vertex areas);
 //! - `fronts`: geodesic fronts from part centres, computed once per centre and shared;
@@ -77,6 +94,7 @@ mod error;
 mod fronts;
 mod levels;
 mod params;
+mod proxy;
 mod surface;
 
 pub use description::{

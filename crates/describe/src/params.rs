@@ -56,6 +56,14 @@ pub struct DescribeParams {
     /// centres beyond the reach of every centre taken are chosen by Euclidean distance. Fronts from
     /// key-components and the whole surface always run over the whole mesh.
     pub layout_reach: Option<f64>,
+    /// Describe a mesh of more vertices than this on a simplified proxy of about this many
+    /// (the one detection's fronts ran on when it has the same budget; crate documentation,
+    /// *Proxy*). Default 0: every mesh on its own vertices (a 10,000-vertex proxy makes
+    /// description 2–4× cheaper on large meshes but loses retrieval, BENCHMARKS.md,
+    /// *Ablations*); at least `keycomp_components::GeodesicOptions::MIN_PROXY_VERTICES`
+    /// otherwise.
+    #[serde(default)]
+    pub proxy_vertices: usize,
 }
 
 impl Default for DescribeParams {
@@ -69,6 +77,7 @@ impl Default for DescribeParams {
             units: Units::ScaleFree,
             complete_only: false,
             layout_reach: None,
+            proxy_vertices: 0,
         }
     }
 }

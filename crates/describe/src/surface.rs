@@ -41,14 +41,16 @@ pub(crate) struct Surface {
 }
 
 /// The surface `params` describe `mesh` on (scaled to the length unit, smoothed, with its
-/// Harris fits), which vertices lie on its boundary, and its geodesic solver.
+/// Harris fits), which vertices lie on its boundary, and its geodesic solver. `area` is the
+/// described shape's area, which sets the unit when the scale is free (the input's when `mesh`
+/// is its proxy).
 pub(crate) fn prepare(
     mesh: &Mesh,
+    area: f64,
     det: &Detection,
     params: &DescribeParams,
 ) -> Result<(Surface, Vec<bool>, GeodesicSolver), DescribeError> {
     let n = mesh.num_vertices();
-    let area = geometry::total_area(mesh);
     let scale = match params.units {
         Units::ScaleFree => {
             if area > 0.0 {

@@ -382,3 +382,73 @@ fn descriptions_do_not_depend_on_the_thread_count() {
         }
     }
 }
+
+#[test]
+fn a_large_mesh_is_described_on_its_proxy_and_lifted_back() {
+    let mesh = synth::textured_protrusion_sphere(6);
+    let n = mesh.num_vertices();
+    let detect_params = DetectParams::default();
+    let params = DescribeParams {
+        proxy_vertices: detect_params.geodesic.proxy_vertices,
+        ..DescribeParams::default()
+    };
+    assert!(n > params.proxy_vertices);
+    let det = detect(&mesh, &detect_params).expect("detect");
+    assert!(
+        det.proxy.is_some(),
+        "detection kept the proxy its fronts ran on"
+    );
+    let d = describe_with(&mesh, &det, &params).expect("describe");
+    // a detection without its proxy (as from a cache) gets the same simplification made anew
+    let mut bare = det.clone();
+    bare.proxy = None;
+    assert_eq!(describe_with(&mesh, &bare, &params).expect("describe"), d);
+
+    let areas = geometry::vertex_areas(&mesh);
+    let total: f64 = areas.iter().sum();
+    let whole = params.levels.len() as u8 + 1;
+    for (i, c) in d.components.iter().enumerate() {
+        assert!(
+            c.vertices.windows(2).all(|w| w[0] < w[1]),
+            "sorted, distinct"
+        );
+        assert!(c.vertices.iter().all(|&v| (v as usize) < n));
+        assert!(
+            c.vertices.binary_search(&c.center).is_ok(),
+            "part {i} holds its centre"
+        );
+        match c.level {
+            0 => assert_eq!(c.vertices, det.components[i].vertices),
+            l if l == whole => assert_eq!(c.vertices.len(), n),
+            _ => {
+                // the lifted vertices cover what the part covered on the proxy
+                let lifted: f64 =
+                    c.vertices.iter().map(|&v| areas[v as usize]).sum::<f64>() / total;
+                assert!(
+                    (lifted - c.area).abs() < 0.01 + 0.1 * c.area,
+                    "part {i}: {lifted} of the input's area, {} of the proxy's",
+                    c.area
+                );
+            }
+        }
+    }
+    // described on its own vertices (the default), the same shape gets parts of the same sizes
+    let full = describe(&mesh, &det).expect("describe");
+    let median_area = |d: &keycomp_describe::ShapeDescription, level: u8| {
+        let mut a: Vec<f64> = d
+            .components
+            .iter()
+            .filter(|c| c.level == level)
+            .map(|c| c.area)
+            .collect();
+        a.sort_by(f64::total_cmp);
+        a[a.len() / 2]
+    };
+    for level in 1..whole {
+        let (p, f) = (median_area(&d, level), median_area(&full, level));
+        assert!(
+            (p - f).abs() < 0.1 * f,
+            "level {level}: {p} on the proxy, {f} on the mesh"
+        );
+    }
+}

@@ -1,6 +1,7 @@
 //! Wall time of detection and of description per mesh, median of `--runs` (default 3).
 //!
-//! `cargo bench -p keycomp --bench analysis_time -- [--runs N] [--layout-reach R|none] MESH...`
+//! `cargo bench -p keycomp --bench analysis_time -- [--runs N] [--layout-reach R|none]
+//! [--describe-vertices N] MESH...`
 //! (MESH paths relative to the workspace root; when `cargo bench` did not run it, it prints its
 //! usage and measures nothing)
 //!
@@ -14,7 +15,7 @@ use std::time::Instant;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let Some(mut args) = bench_args(
-        "cargo bench -p keycomp --bench analysis_time -- [--runs N] [--layout-reach R|none] MESH...",
+        "cargo bench -p keycomp --bench analysis_time -- [--runs N] [--layout-reach R|none] [--describe-vertices N] MESH...",
     ) else {
         return Ok(());
     };
@@ -30,6 +31,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .get(i + 1)
             .ok_or("--layout-reach needs a length or 'none'")?;
         profile.describe.layout_reach = if r == "none" { None } else { Some(r.parse()?) };
+        args.drain(i..i + 2);
+    }
+    if let Some(i) = args.iter().position(|a| a == "--describe-vertices") {
+        let n = args
+            .get(i + 1)
+            .ok_or("--describe-vertices needs a number")?;
+        profile.describe.proxy_vertices = n.parse()?;
         args.drain(i..i + 2);
     }
     println!("mesh | vertices | parts | detect ms | describe ms | describe / detect");

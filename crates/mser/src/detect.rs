@@ -566,6 +566,7 @@ impl MserDetection {
             geodesic_vertices: 0,
             unclustered,
             components,
+            proxy: None,
             timings: Timings::default(),
         })
     }

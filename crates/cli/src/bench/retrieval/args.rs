@@ -109,6 +109,11 @@ pub struct Args {
     /// the length unit; 'none' for the whole mesh) [default: the description's].
     #[arg(long, value_name = "R")]
     pub layout_reach: Option<String>,
+    /// Ablation: describe meshes of more vertices than N on a proxy of N
+    /// (`DescribeParams::proxy_vertices`; 0: every mesh on its own vertices) [default: the
+    /// description's].
+    #[arg(long, value_name = "N")]
+    pub describe_vertices: Option<usize>,
     /// Key-components only: leave out D2 and the FPFH bags of words (quicker ablations; the
     /// tables then have no baseline column).
     #[arg(long)]

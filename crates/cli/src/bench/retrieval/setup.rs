@@ -134,6 +134,9 @@ impl Setup {
                 }
             };
         }
+        if let Some(n) = args.describe_vertices {
+            describe.proxy_vertices = n;
+        }
         describe.complete_only = args.complete_only;
         let mut match_params = MatchParams {
             idf: args.idf,
