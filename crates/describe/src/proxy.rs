@@ -8,14 +8,13 @@
 //!
 //! The parts are chosen and described on the proxy, then lifted back to the input's vertex ids:
 //! a centre is a survivor, so it keeps its id; a patch holds the input vertices whose nearest
-//! survivor along the mesh's edges (a multi-source Dijkstra) is in the patch; a key-component
+//! survivor along the mesh's edges (`keycomp_mesh::graph::dijkstra`) is in the patch; a key-component
 //! keeps its own vertices, and the whole surface all of them.
 
-use std::cmp::Reverse;
-use std::collections::BinaryHeap;
 use std::sync::Arc;
 
 use keycomp_components::{Detection, GeodesicOptions, KeyComponent, Proxy, geodesic_proxy};
+use keycomp_mesh::graph::dijkstra;
 use keycomp_mesh::{Mesh, Topology, VertexId, geometry};
 
 use crate::params::DescribeParams;
@@ -144,54 +143,23 @@ impl OnProxy {
     }
 }
 
-/// For every vertex of `mesh`, the index into `survivors` (vertex ids, increasing) of the one
-/// nearest along the mesh's edges (ties: the lower index); `u32::MAX` for vertices no survivor
-/// reaches (unreferenced ones, pieces the simplification dropped).
+/// For every vertex of `mesh`, the index into `survivors` (vertex ids) of the one nearest along
+/// the mesh's edges (ties: the lower index; `keycomp_mesh::graph::dijkstra`); `u32::MAX` for
+/// vertices no survivor reaches (unreferenced ones, pieces the simplification dropped).
 fn nearest_survivor(mesh: &Mesh, topo: &Topology, survivors: &[VertexId]) -> Vec<u32> {
-    let n = mesh.num_vertices();
-    let mut owner = vec![u32::MAX; n];
-    let mut dist = vec![f64::INFINITY; n];
-    let mut heap = BinaryHeap::new();
-    for (i, &v) in survivors.iter().enumerate() {
-        dist[v as usize] = 0.0;
-        owner[v as usize] = i as u32;
-        heap.push(Reverse((Key(0.0), i as u32, v)));
-    }
-    while let Some(Reverse((Key(d), o, v))) = heap.pop() {
-        let vi = v as usize;
-        if d > dist[vi] || (d == dist[vi] && o != owner[vi]) {
-            continue;
-        }
-        let p = mesh.positions[vi];
-        for &w in topo.neighbors(v) {
-            let wi = w as usize;
-            let dw = d + (mesh.positions[wi] - p).norm();
-            if dw < dist[wi] || (dw == dist[wi] && o < owner[wi]) {
-                dist[wi] = dw;
-                owner[wi] = o;
-                heap.push(Reverse((Key(dw), o, w)));
-            }
-        }
-    }
+    let mut owner = vec![u32::MAX; mesh.num_vertices()];
+    let sources: Vec<(VertexId, u32)> = (0..).zip(survivors).map(|(i, &v)| (v, i)).collect();
+    dijkstra(
+        &mesh.positions,
+        topo,
+        &sources,
+        f64::INFINITY,
+        |v, _, label| {
+            owner[v as usize] = label;
+            true
+        },
+    );
     owner
-}
-
-/// A distance ordered by `total_cmp` (they are finite and non-negative here).
-#[derive(Clone, Copy, PartialEq)]
-struct Key(f64);
-
-impl Eq for Key {}
-
-impl PartialOrd for Key {
-    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
-        Some(self.cmp(other))
-    }
-}
-
-impl Ord for Key {
-    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
-        self.0.total_cmp(&other.0)
-    }
 }
 
 /// The vertices of each of `groups` owners, in increasing order, as offsets and members.

@@ -2,7 +2,8 @@
 //! the point clouds and range scans that scanners give (PLY range grids and vertex-only PLY,
 //! XYZ, PTS, PCD), writing OFF, coloured PLY and GLB, geometry (areas, bounding box, unit-area
 //! normalisation), adjacency and synthetic shapes generated in code, range-grid triangulation
-//! ([`grid`]) and simplification by half-edge collapse ([`simplify`]).
+//! ([`grid`]), simplification by half-edge collapse ([`simplify`]) and multi-source Dijkstra
+//! over the edges ([`graph`]).
 //!
 //! Two entry points read files: [`read_mesh`] when a mesh is needed (range grids come
 //! triangulated; a file of points only is an [`ErrorKind::PointCloud`] error), [`read_input`]
@@ -19,6 +20,7 @@
 pub mod cut;
 mod error;
 pub mod geometry;
+pub mod graph;
 pub mod grid;
 pub mod io;
 pub mod sample;
