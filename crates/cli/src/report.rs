@@ -257,6 +257,7 @@ pub(crate) fn paint_parts(
         .filter_map(|&(part, col)| {
             let c = record.components.get(part)?;
             let share = f64::from(c.area_fraction);
+            // a whole-surface part would be skipped by `paint_regions`: not grown at all
             ((c.centre_vertex as usize) < mesh.num_vertices() && share < WHOLE).then(|| {
                 let region = region_of_area(mesh, solver, c.centre_vertex, share);
                 (share, region, col)
@@ -388,7 +389,7 @@ fn build(out: &Path, reader: &Reader, entries: &[QueryEntry], params: &ReportPar
             "<div class=\"query\"><figure><img src=\"{qimg}\" width=\"{s}\" height=\"{s}\" alt=\"query {}\"><figcaption>the query: {} vertices, {} parts</figcaption></figure>",
             escape(&e.title),
             q.mesh.num_vertices(),
-            q.description.components.len(),
+            q.hypothesis(top_h).components.len(),
             s = params.query_size
         )?;
         if e.results.is_empty() {
@@ -472,12 +473,15 @@ fn build(out: &Path, reader: &Reader, entries: &[QueryEntry], params: &ReportPar
                 "<details><summary>matched parts of each result</summary><ul>{details}</ul></details>"
             )?;
         }
+        // the parts the picture's numbers and colours refer to: those of the best result's
+        // scale hypothesis
+        let parts = &q.hypothesis(top_h).components;
         writeln!(
             h,
             "<details><summary>the query's {} parts</summary><ul>",
-            q.description.components.len()
+            parts.len()
         )?;
-        for (i, c) in q.description.components.iter().enumerate() {
+        for (i, c) in parts.iter().enumerate() {
             writeln!(
                 h,
                 "<li>part {i}: {:.1} % of the area, {} keypoints</li>",
