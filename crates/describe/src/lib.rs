@@ -57,15 +57,15 @@
 //! anew, so detection and description can share one. The parts are chosen and described there
 //! and lifted back to the input's vertex ids (a patch holds the input vertices whose nearest
 //! survivor along the edges is in it; a key-component keeps its own vertices). It bounds
-//! description's cost on meshes of any size (at N = 10,000, 0.25–0.45 of detection's time on
+//! description's cost on meshes of any size (at N = 10,000, 0.25–0.5 of detection's time on
 //! meshes of 28,000–60,000 vertices instead of 1.2×), but it is not the default: a source
 //! described on a coarser surface than its fragments no longer matches them (TOSCA's scan
 //! fragments, whose sources have about 25,000 vertices: NN 0.833 → 0.639; BENCHMARKS.md,
 //! *Ablations*).
 //!
 //! Cost: 60 smoothing passes over the described surface (the mesh or its proxy), a Harris fit
-//! per vertex, one fast-marching front per distinct part centre (kept for the layout: with the
-//! defaults 30–40 fronts of |V| `f64` each, about 3 MB at the proxy's 10,000 vertices; the
+//! per vertex, one fast-marching front per distinct part centre (parts of several levels often
+//! share one; each kept for the layout, |V| `f64`: 80 kB per front at 10,000 vertices; the
 //! parameters are bounded by [`MAX_LEVELS`], [`MAX_PATCHES_PER_LEVEL`] and
 //! [`MAX_SMOOTHING_ITERATIONS`]), plus linear passes over each part's vertices and [`PAIRS`]
 //! draws per part. The levels choose their centres in parallel and the parts' fronts and
