@@ -165,10 +165,73 @@ pub struct Surface {
     pub dropped_faces: usize,
 }
 
-/// The canonical surface of `input` (see the module documentation).
+/// How densely a canonical surface is sampled: always relative to the area of the shape the
+/// input stands for, so that a whole shape, a fragment of it and a scan of it are sampled at
+/// the same density per unit of the source's area.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Density {
+    /// The input stands for this share (in (0, 1]) of its source's area: about
+    /// `share ×` [`SurfaceParams::vertices`] vertices (1 for a whole shape).
+    Share(f64),
+    /// [`SurfaceParams::vertices`] per this area (in the input's units squared, > 0): a
+    /// collection in known units sampled at one density. The vertex count is kept within
+    /// [`Density::UNIT_RANGE`] times the budget (a shape much larger or smaller than the unit
+    /// is sampled more coarsely or finely than the others, with bounded work).
+    UnitArea(f64),
+}
+
+impl Density {
+    /// Bounds of the vertex count of [`Density::UnitArea`], as factors of
+    /// [`SurfaceParams::vertices`].
+    pub const UNIT_RANGE: (f64, f64) = (0.125, 4.0);
+    /// Fewest vertices any density asks for.
+    pub const MIN_TARGET: f64 = 200.0;
+
+    /// Vertices to aim at for a surface of `area` under `params`.
+    fn target(self, area: f64, params: &SurfaceParams) -> f64 {
+        let v = params.vertices as f64;
+        let t = match self {
+            Density::Share(f) => v * f,
+            Density::UnitArea(a) => {
+                (v * area / a).clamp(v * Self::UNIT_RANGE.0, v * Self::UNIT_RANGE.1)
+            }
+        };
+        if t.is_nan() {
+            v
+        } else {
+            t.max(Self::MIN_TARGET)
+        }
+    }
+
+    fn validate(self) -> Result<(), SurfaceError> {
+        let ok = match self {
+            Density::Share(f) => f.is_finite() && f > 0.0 && f <= 1.0,
+            Density::UnitArea(a) => a.is_finite() && a > 0.0,
+        };
+        if ok {
+            Ok(())
+        } else {
+            Err(SurfaceError::Params(format!(
+                "the density must be a share in (0, 1] or a positive unit area, got {self:?}"
+            )))
+        }
+    }
+}
+
+/// The canonical surface of `input` (see the module documentation), for a whole shape
+/// ([`Density::Share`] 1).
 pub fn canonical(input: Input, params: &SurfaceParams) -> Result<Surface, SurfaceError> {
+    canonical_at(input, params, Density::Share(1.0))
+}
+
+/// The canonical surface of `input` sampled at `density`.
+pub fn canonical_at(
+    input: Input,
+    params: &SurfaceParams,
+    density: Density,
+) -> Result<Surface, SurfaceError> {
     params.validate()?;
-    let target = params.vertices as f64;
+    density.validate()?;
     let (first_area, bbox, orientation, cloud) = match input {
         Input::Mesh(mesh) => {
             let area = geometry::total_area(mesh);
@@ -208,12 +271,13 @@ pub fn canonical(input: Input, params: &SurfaceParams) -> Result<Surface, Surfac
             (Input::Points { .. }, None) => Err(SurfaceError::NoArea),
         }
     };
-    let mut h = spacing_for(first_area, target);
+    let mut h = spacing_for(first_area, density.target(first_area, params));
     let mut surface = make(h)?;
     // at most two corrections of the spacing, from the area actually made (a soup's hidden
     // faces are in the input's area, not in its outer surface; a cloud's area is an estimate)
     for _ in 0..2 {
-        let next = spacing_for(geometry::total_area(&surface.mesh), target);
+        let made = geometry::total_area(&surface.mesh);
+        let next = spacing_for(made, density.target(made, params));
         if next.is_nan() || next <= 0.0 || (next / h - 1.0).abs() < 0.15 {
             break;
         }

@@ -126,7 +126,9 @@ pub fn surface_nets(vol: &Volume) -> (Vec<Point3<f64>>, Vec<[u32; 3]>) {
                     };
                     let d02 = (positions[q[0] as usize] - positions[q[2] as usize]).norm_squared();
                     let d13 = (positions[q[1] as usize] - positions[q[3] as usize]).norm_squared();
-                    if d02 <= d13 {
+                    // diagonals equal up to rounding (a symmetric cell) take the first, so
+                    // that a moved or scaled copy of the input is split alike
+                    if d02 <= d13 * (1.0 + TIE) {
                         faces.push([q[0], q[1], q[2]]);
                         faces.push([q[0], q[2], q[3]]);
                     } else {
@@ -139,6 +141,9 @@ pub fn surface_nets(vol: &Volume) -> (Vec<Point3<f64>>, Vec<[u32; 3]>) {
     }
     (positions, faces)
 }
+
+/// Relative difference below which a quad's diagonals count as equal.
+const TIE: f64 = 1e-9;
 
 fn offset(c: [usize; 3]) -> nalgebra::Vector3<f64> {
     nalgebra::Vector3::new(c[0] as f64, c[1] as f64, c[2] as f64)

@@ -115,7 +115,7 @@ impl Cloud {
     }
 
     /// The points thinned to one per cube of side `s/2`, with oriented normals (see the module
-    /// docs), and the largest gap the offset must bridge: the 90th percentile of the distance
+    /// docs), and the largest gap the offset must bridge: the 98th percentile of the distance
     /// from a kept point to its [`GAP_NEIGHBOUR`]-th nearest kept neighbour. Not the nearest:
     /// points in lines (a scanner's rows, a mesh's rings of vertices) have their nearest
     /// neighbour along the line, and the gap to the next line is the third or fourth.
@@ -147,7 +147,7 @@ impl Cloud {
             })
             .collect();
         gaps.sort_by(f64::total_cmp);
-        let gap = gaps.get(gaps.len() * 9 / 10).copied().unwrap_or(0.0);
+        let gap = gaps.get(gaps.len() * 49 / 50).copied().unwrap_or(0.0);
         if self.normals.is_none() {
             kept.normals = fitted_normals(&kept.positions, &neighbours);
         }

@@ -65,12 +65,15 @@ pub fn lattice(mesh: &Mesh, flip: &[bool], s: f64) -> Result<Samples, SurfaceErr
                 }
                 continue;
             }
-            // bisect the longest edge; both halves keep the winding
-            if longest == ab {
+            // bisect the longest edge; both halves keep the winding. Edges equal up to
+            // rounding count as equal, the first in the order ab, bc, ca taken, so that a
+            // moved or scaled copy is sampled alike.
+            let tie = longest * (1.0 - TIE);
+            if ab >= tie {
                 let m = Point3::from((a.coords + b.coords) / 2.0);
                 stack.push([a, m, c]);
                 stack.push([m, b, c]);
-            } else if longest == bc {
+            } else if bc >= tie {
                 let m = Point3::from((b.coords + c.coords) / 2.0);
                 stack.push([a, b, m]);
                 stack.push([a, m, c]);
@@ -84,16 +87,24 @@ pub fn lattice(mesh: &Mesh, flip: &[bool], s: f64) -> Result<Samples, SurfaceErr
     Ok(thin(out, 0.5 * s))
 }
 
-/// Keeps the first sample (in order) of each cube of side `cell`.
+/// Relative difference below which two squared edge lengths count as equal.
+const TIE: f64 = 1e-9;
+
+/// Keeps the first sample (in order) of each cube of side `cell`, the cubes anchored at the
+/// samples' lowest corner (so that a moved copy keeps the same samples).
 pub fn thin(samples: Samples, cell: f64) -> Samples {
     if samples.positions.is_empty() || cell.is_nan() || cell <= 0.0 {
         return samples;
     }
+    let min = samples.positions.iter().fold(
+        Point3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY),
+        |m, p| m.inf(p),
+    );
     let key = |p: &Point3<f64>| {
         [
-            (p.x / cell).floor() as i64,
-            (p.y / cell).floor() as i64,
-            (p.z / cell).floor() as i64,
+            ((p.x - min.x) / cell).floor() as i64,
+            ((p.y - min.y) / cell).floor() as i64,
+            ((p.z - min.z) / cell).floor() as i64,
         ]
     };
     let mut order: Vec<([i64; 3], u32)> = samples

@@ -302,3 +302,37 @@ mod properties {
         }
     }
 }
+
+/// A scaled and moved copy gets the same surface, scaled and moved, up to rounding: the
+/// spacing follows the area, the grid and the samples' thinning are anchored on the input's
+/// box, and choices between lengths equal up to rounding (which edge to bisect, which diagonal
+/// splits a quad) go the same way.
+#[test]
+fn a_scaled_and_moved_copy_gets_the_same_surface() {
+    let m = synth::textured_protrusion_sphere(4);
+    let a = canonical(Input::Mesh(&m), &params(4000)).expect("surface");
+    for (k, shift) in [(2.0, 0.0), (0.25, 0.0), (4.0, 8.0), (1.0, -3.7)] {
+        let mut c = m.clone();
+        for p in &mut c.positions {
+            *p = Point3::new(p.x * k + shift, p.y * k + shift, p.z * k + shift);
+        }
+        let b = canonical(Input::Mesh(&c), &params(4000)).expect("surface");
+        assert_eq!(
+            a.mesh.num_vertices(),
+            b.mesh.num_vertices(),
+            "scale {k}, shift {shift}"
+        );
+        let worst = a
+            .mesh
+            .positions
+            .iter()
+            .zip(&b.mesh.positions)
+            .map(|(p, q)| (p.coords - (q.coords - Vector3::repeat(shift)) / k).norm())
+            .fold(0.0, f64::max);
+        assert!(
+            worst < 1e-9,
+            "scale {k}, shift {shift}: a vertex moved by {worst}"
+        );
+        assert_eq!(a.mesh.faces, b.mesh.faces, "scale {k}, shift {shift}");
+    }
+}

@@ -1,0 +1,194 @@
+//! How faithful the canonical surface is to its input: two-sided distances and the area ratio.
+//!
+//! `cargo bench -p keycomp-surface --bench fidelity -- [--vertices N] [--samples N] PATH...`
+//! (PATHs, files or folders searched for meshes, relative to the workspace root; when `cargo
+//! bench` did not run it, it prints its usage and measures nothing)
+//!
+//! For every mesh: its canonical surface (`keycomp_surface::canonical`, the default parameters
+//! or `--vertices N`), `--samples` points (default 20,000) drawn uniformly by area on each side,
+//! and each side's distances to a dense sampling of the other (200,000 points by area; the
+//! distances are therefore upper bounds, by at most that sampling's spacing), relative to the
+//! input's bounding-box diagonal:
+//! - *surface → input*: surface the input does not have (a web across a gap, a bridge over a
+//!   crack) is far from the input;
+//! - *input → surface*: input the surface lost (a thin part, or a soup's faces hidden inside
+//!   the solid, which the surface drops on purpose).
+//!
+//! Prints one line per mesh (median, 99th percentile and largest distance each way, area of
+//! the surface over the input's) and, per folder, the median of each column over its meshes
+//! and the worst mesh of the 99th percentile surface → input. Deterministic (seeded samples).
+
+use std::path::{Path, PathBuf};
+
+use keycomp_mesh::sample::AreaSampler;
+use keycomp_mesh::{Mesh, Point3, geometry, read_mesh};
+use keycomp_surface::{Input, SurfaceParams, canonical};
+use keycomp_test_support::{bench_args, median, workspace_path};
+use kiddo::SquaredEuclidean;
+use kiddo::immutable::float::kdtree::ImmutableKdTree;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+
+/// Points of the dense sampling distances are measured to.
+const DENSE: usize = 200_000;
+
+fn samples(mesh: &Mesh, n: usize, seed: u64) -> Vec<Point3<f64>> {
+    let Some(sampler) = AreaSampler::new(mesh) else {
+        return Vec::new();
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    (0..n).map(|_| sampler.sample(&mut rng).0).collect()
+}
+
+/// Distances from each of `from` to the nearest of `to`, sorted.
+fn distances(from: &[Point3<f64>], to: &[Point3<f64>]) -> Vec<f64> {
+    let coords: Vec<[f64; 3]> = to.iter().map(|p| [p.x, p.y, p.z]).collect();
+    let tree: ImmutableKdTree<f64, u32, 3, 32> = ImmutableKdTree::new_from_slice(&coords);
+    let mut d: Vec<f64> = from
+        .iter()
+        .map(|p| {
+            tree.nearest_one::<SquaredEuclidean>(&[p.x, p.y, p.z])
+                .distance
+                .sqrt()
+        })
+        .collect();
+    d.sort_by(f64::total_cmp);
+    d
+}
+
+fn quantile(sorted: &[f64], q: f64) -> f64 {
+    if sorted.is_empty() {
+        return f64::NAN;
+    }
+    sorted[((sorted.len() - 1) as f64 * q).round() as usize]
+}
+
+/// One mesh's row: median, p99 and max each way (relative to the diagonal), area ratio.
+struct Row {
+    name: String,
+    cols: [f64; 7],
+}
+
+fn measure(path: &Path, params: &SurfaceParams, n: usize) -> Result<Row, String> {
+    let mesh = read_mesh(path).map_err(|e| e.to_string())?.mesh;
+    let surface = canonical(Input::Mesh(&mesh), params)
+        .map_err(|e| format!("{}: {e}", path.display()))?
+        .mesh;
+    let diag = geometry::bounding_box(&mesh).diagonal();
+    let to_input = distances(&samples(&surface, n, 1), &samples(&mesh, DENSE, 2));
+    let to_surface = distances(&samples(&mesh, n, 3), &samples(&surface, DENSE, 4));
+    let rel = |x: f64| 100.0 * x / diag;
+    Ok(Row {
+        name: path.display().to_string(),
+        cols: [
+            rel(quantile(&to_input, 0.5)),
+            rel(quantile(&to_input, 0.99)),
+            rel(quantile(&to_input, 1.0)),
+            rel(quantile(&to_surface, 0.5)),
+            rel(quantile(&to_surface, 0.99)),
+            rel(quantile(&to_surface, 1.0)),
+            geometry::total_area(&surface) / geometry::total_area(&mesh),
+        ],
+    })
+}
+
+fn meshes_in(path: &Path) -> Vec<PathBuf> {
+    if !path.is_dir() {
+        return vec![path.to_path_buf()];
+    }
+    let mut out: Vec<PathBuf> = std::fs::read_dir(path)
+        .map(|d| d.filter_map(|e| e.ok().map(|e| e.path())).collect())
+        .unwrap_or_default();
+    out.retain(|p| {
+        keycomp_mesh::Format::from_path(p).is_ok()
+            && read_mesh(p).is_ok_and(|m| m.mesh.num_faces() > 0)
+    });
+    out.sort();
+    out
+}
+
+fn print(row: &Row) {
+    let c = row.cols;
+    println!(
+        "{} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3}",
+        row.name, c[0], c[1], c[2], c[3], c[4], c[5], c[6]
+    );
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let usage =
+        "cargo bench -p keycomp-surface --bench fidelity -- [--vertices N] [--samples N] PATH...";
+    let Some(mut args) = bench_args(usage) else {
+        return Ok(());
+    };
+    args.remove(0);
+    let mut params = SurfaceParams::default();
+    let mut n = 20_000;
+    let mut take = |flag: &str| -> Result<Option<usize>, Box<dyn std::error::Error>> {
+        match args.iter().position(|a| a == flag) {
+            Some(i) => {
+                let v = args
+                    .get(i + 1)
+                    .ok_or(format!("{flag} needs a number"))?
+                    .parse()?;
+                args.drain(i..i + 2);
+                Ok(Some(v))
+            }
+            None => Ok(None),
+        }
+    };
+    if let Some(v) = take("--vertices")? {
+        params.vertices = v;
+    }
+    if let Some(v) = take("--samples")? {
+        n = v;
+    }
+    if args.is_empty() {
+        return Err(usage.into());
+    }
+    println!(
+        "distances in % of the input's bounding-box diagonal; vertices {}",
+        params.vertices
+    );
+    println!(
+        "mesh | surface→input median | p99 | max | input→surface median | p99 | max | area ratio"
+    );
+    let mut summaries = Vec::new();
+    for arg in &args {
+        let rows: Vec<Row> = meshes_in(&workspace_path(arg))
+            .iter()
+            .filter_map(|p| match measure(p, &params, n) {
+                Ok(r) => Some(r),
+                Err(e) => {
+                    eprintln!("skipped: {e}");
+                    None
+                }
+            })
+            .collect();
+        rows.iter().for_each(print);
+        if rows.len() > 1 {
+            let cols: Vec<f64> = (0..7)
+                .map(|k| median(rows.iter().map(|r| r.cols[k]).collect()))
+                .collect();
+            let worst = rows
+                .iter()
+                .max_by(|a, b| a.cols[1].total_cmp(&b.cols[1]))
+                .map(|r| format!("{} ({:.3})", r.name, r.cols[1]))
+                .unwrap_or_default();
+            summaries.push((arg.clone(), rows.len(), cols, worst));
+        }
+    }
+    if !summaries.is_empty() {
+        println!();
+        println!(
+            "folder | meshes | surface→input median | p99 | max | input→surface median | p99 | max | area ratio | worst p99 surface→input"
+        );
+        for (arg, count, c, worst) in summaries {
+            println!(
+                "{arg} | {count} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {worst}",
+                c[0], c[1], c[2], c[3], c[4], c[5], c[6]
+            );
+        }
+    }
+    Ok(())
+}
