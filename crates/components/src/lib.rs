@@ -31,7 +31,8 @@ pub use grow::{Component, RegionGrower, geodesic_center};
 pub use params::{ComponentParams, Preset};
 pub use pipeline::{
     DetectError, DetectParams, Detection, Extracted, ExtractedComponent, GeodesicOptions,
-    KeyComponent, Proxy, Timings, detect, extract_components, geodesic_proxy, keypoint_distances,
+    KeyComponent, Proxy, Timings, detect, detect_in, extract_components, geodesic_proxy,
+    keypoint_distances,
 };
 pub use smacof::{Embedding, SmacofParams, UpperTriangle, smacof, smacof_upper};
 pub use sphere::{Sphere, SphereRule, min_enclosing_sphere, spread_sphere};

@@ -37,7 +37,7 @@ use std::str::FromStr;
 
 use serde::{Deserialize, Serialize};
 
-use keycomp_harris::{HarrisParams, Selection};
+use keycomp_harris::{HarrisParams, LengthReference, Neighborhood, Selection};
 
 use crate::cluster::ClusterParams;
 use crate::error::ComponentsError;
@@ -112,10 +112,16 @@ impl Preset {
     /// The paper's presets, in order.
     pub const ALL: [Preset; 3] = [Preset::Kc1, Preset::Kc2, Preset::Kc3];
 
-    /// Taubin λ|μ pairs before Harris 3D in the robust preset.
-    pub const ROBUST_SMOOTHING_ITERATIONS: usize = 30;
-    /// Keypoints as a fraction of the vertices in the robust preset.
-    pub const ROBUST_KEYPOINT_FRACTION: f64 = 0.02;
+    /// How far Harris 3D's copy is smoothed in the robust preset, in unit lengths
+    /// (`HarrisParams::smoothing_length`): 30 Taubin λ|μ pairs on a default canonical surface
+    /// (mean edge 0.011 unit lengths), (0.0257/ē)⁴ on a mesh of mean edge ē.
+    pub const ROBUST_SMOOTHING_LENGTH: f64 = 0.0257;
+    /// Keypoints per unit area in the robust preset (`Selection::PerArea`): about 4 % of a
+    /// default canonical surface's vertices, 2 % of a 20,000-vertex mesh's.
+    pub const ROBUST_KEYPOINT_DENSITY: f64 = 400.0;
+    /// Harris neighbourhoods of the robust preset reach this many unit lengths
+    /// (`LengthReference::Unit`): two rings of a default canonical surface.
+    pub const ROBUST_HARRIS_RADIUS: f64 = 0.02;
     /// [`SphereRule::Spread`]'s factor in the robust preset.
     pub const ROBUST_SPREAD_FACTOR: f64 = 1.2;
     /// SMACOF's over-relaxation in the robust preset ([`SmacofParams::relaxation`]).
@@ -131,8 +137,12 @@ impl Preset {
     pub fn harris_params(self) -> HarrisParams {
         match self {
             Preset::Robust => HarrisParams {
-                smoothing_iterations: Self::ROBUST_SMOOTHING_ITERATIONS,
-                selection: Selection::Fraction(Self::ROBUST_KEYPOINT_FRACTION),
+                smoothing_length: Some(Self::ROBUST_SMOOTHING_LENGTH),
+                selection: Selection::PerArea(Self::ROBUST_KEYPOINT_DENSITY),
+                neighborhood: Neighborhood::Adaptive {
+                    radius_fraction: Self::ROBUST_HARRIS_RADIUS,
+                },
+                length_reference: LengthReference::Unit,
                 ..HarrisParams::default()
             },
             _ => HarrisParams::default(),
@@ -250,12 +260,17 @@ mod tests {
         assert_eq!(c.smacof.starts, 1);
         let h = r.harris_params();
         h.validate().unwrap();
-        assert_eq!(h.smoothing_iterations, 30);
-        assert_eq!(h.selection, Selection::Fraction(0.02));
+        assert_eq!(h.smoothing_length, Some(0.0257));
+        assert_eq!(h.selection, Selection::PerArea(400.0));
+        assert_eq!(h.length_reference, LengthReference::Unit);
         assert_eq!(
             HarrisParams {
-                smoothing_iterations: 0,
+                smoothing_length: None,
                 selection: Selection::Fraction(0.01),
+                neighborhood: Neighborhood::Adaptive {
+                    radius_fraction: 0.01
+                },
+                length_reference: LengthReference::MomentDiagonal,
                 ..h
             },
             HarrisParams::default()

@@ -80,7 +80,7 @@ use keycomp_geodesic::{
     DistanceMatrix, GeodesicError, GeodesicParams, GeodesicSolver, ShortRadius, distance_matrix,
     landmark_distance_matrix,
 };
-use keycomp_harris::{HarrisError, HarrisParams};
+use keycomp_harris::{HarrisError, HarrisParams, UnitArea};
 use keycomp_mesh::{Mesh, Point3, Topology, VertexId, geometry, simplify};
 use serde::{Deserialize, Serialize};
 
@@ -377,13 +377,47 @@ fn ms(t: Instant) -> f64 {
 /// Fewer than two keypoints, or no cluster reaching N keypoints, give a detection with no
 /// components, not an error.
 pub fn detect(mesh: &Mesh, params: &DetectParams) -> Result<Detection, DetectError> {
+    detect_in(mesh, params, UnitArea::Own)
+}
+
+/// [`detect`] with `unit` as the area that counts as 1 (step 1) instead of the mesh's own
+/// area: R, T, the sphere radii, the Harris responses, `LengthReference::Unit` radii,
+/// `Selection::PerArea` budgets and smoothing lengths are then measured in the unit of the
+/// shape `unit` stands for. A fragment that keeps the share f of its source and is given its
+/// source's area is analysed as that part of the source would be; with [`UnitArea::Own`] it is
+/// magnified by 1/√f, as the paper's per-shape normalisation does. Not in the paper.
+pub fn detect_in(
+    mesh: &Mesh,
+    params: &DetectParams,
+    unit: UnitArea,
+) -> Result<Detection, DetectError> {
     params.validate()?;
 
     let t = Instant::now();
     let area = geometry::total_area(mesh);
-    let (norm, scale) = geometry::normalize_unit_area(mesh);
+    let (norm, scale, harris_unit) = match unit {
+        UnitArea::Own => {
+            let (norm, scale) = geometry::normalize_unit_area(mesh);
+            (norm, scale, UnitArea::Own)
+        }
+        UnitArea::Given(a) => {
+            if !(a.is_finite() && a > 0.0) {
+                return Err(DetectError::Components(ComponentsError::param(
+                    "unit_area",
+                    a,
+                    "must be a positive area",
+                )));
+            }
+            let s = 1.0 / a.sqrt();
+            let norm = Mesh {
+                positions: mesh.positions.iter().map(|p| p * s).collect(),
+                faces: mesh.faces.clone(),
+            };
+            (norm, s, UnitArea::Given(1.0))
+        }
+    };
     let topo = Topology::new(&norm);
-    let harris = keycomp_harris::detect(&norm, &topo, &params.harris)?;
+    let harris = keycomp_harris::detect_in(&norm, &topo, &params.harris, harris_unit)?;
     let t_harris = ms(t);
 
     let t = Instant::now();

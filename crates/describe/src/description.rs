@@ -118,8 +118,7 @@ pub fn describe_all(
     }
     let proxy = on_proxy(mesh, det, first);
     let (on_mesh, on_det) = proxy.as_ref().map_or((mesh, det), |p| (&p.mesh, &p.det));
-    let area = keycomp_mesh::geometry::total_area(mesh);
-    let (surface, boundary, solver) = prepare(on_mesh, area, on_det, first)?;
+    let (surface, boundary, solver) = prepare(on_mesh, on_det, first)?;
     let fronts = Fronts::new(&solver);
     all.iter()
         .map(|params| {

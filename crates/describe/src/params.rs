@@ -31,9 +31,17 @@ pub struct DescribeParams {
     /// Taubin λ|μ pairs applied to the surface before describing (see the crate documentation,
     /// *Smoothing*). Default 30; 0 describes the surface as it is.
     pub smoothing_iterations: usize,
+    /// Smoothing as a length in the description's unit instead of a number of passes
+    /// (`keycomp_harris::smoothing_passes`: `round((length / ē)⁴)` pairs for ē the mean edge
+    /// length in the unit), so that the same surface sampled at any density is smoothed alike.
+    /// Default 0.0257, 30 pairs on a canonical surface; `None` uses
+    /// [`DescribeParams::smoothing_iterations`] (profiles recorded before the field existed).
+    #[serde(default)]
+    pub smoothing_length: Option<f64>,
     /// Harris 3D settings of the response and curvature histograms, computed on the smoothed
-    /// surface. Default: the detector's defaults, whatever the detection used, so that every
-    /// shape of an index is described alike.
+    /// surface (only the neighbourhood matters). Default: neighbourhoods of 0.02 unit lengths
+    /// (the robust preset's, `keycomp_components::Preset::ROBUST_HARRIS_RADIUS`), whatever the
+    /// detection used, so that every shape of an index is described alike.
     pub harris: keycomp_harris::HarrisParams,
     /// Geodesic radii of the patch levels, in the length unit of [`DescribeParams::units`] (see the
     /// crate documentation, *Parts*). Default 0.06, 0.09, 0.135, 0.2, 0.3, 0.45 (factor 1.5).
@@ -70,7 +78,14 @@ impl Default for DescribeParams {
     fn default() -> Self {
         DescribeParams {
             smoothing_iterations: 30,
-            harris: keycomp_harris::HarrisParams::default(),
+            smoothing_length: Some(keycomp_components::Preset::ROBUST_SMOOTHING_LENGTH),
+            harris: keycomp_harris::HarrisParams {
+                neighborhood: keycomp_harris::Neighborhood::Adaptive {
+                    radius_fraction: keycomp_components::Preset::ROBUST_HARRIS_RADIUS,
+                },
+                length_reference: keycomp_harris::LengthReference::Unit,
+                ..keycomp_harris::HarrisParams::default()
+            },
             levels: vec![0.06, 0.09, 0.135, 0.2, 0.3, 0.45],
             patches_per_level: 16,
             whole: true,

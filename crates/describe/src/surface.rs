@@ -41,24 +41,19 @@ pub(crate) struct Surface {
 }
 
 /// The surface `params` describe `mesh` on (scaled to the length unit, smoothed, with its
-/// Harris fits), which vertices lie on its boundary, and its geodesic solver. `area` is the
-/// described shape's area, which sets the unit when the scale is free (the input's when `mesh`
-/// is its proxy).
+/// Harris fits), which vertices lie on its boundary, and its geodesic solver. When the scale
+/// is free the unit is the detection's ([`Detection::scale`]: the shape's own unit area, or the
+/// area of the shape a fragment stands for when it was detected in its source's unit,
+/// `keycomp_components::detect_in`).
 pub(crate) fn prepare(
     mesh: &Mesh,
-    area: f64,
     det: &Detection,
     params: &DescribeParams,
 ) -> Result<(Surface, Vec<bool>, GeodesicSolver), DescribeError> {
     let n = mesh.num_vertices();
     let scale = match params.units {
-        Units::ScaleFree => {
-            if area > 0.0 {
-                1.0 / area.sqrt()
-            } else {
-                1.0
-            }
-        }
+        Units::ScaleFree if det.scale.is_finite() && det.scale > 0.0 => det.scale,
+        Units::ScaleFree => 1.0,
         Units::File { length } => 1.0 / length,
     };
     let mut norm = Mesh {
@@ -66,12 +61,29 @@ pub(crate) fn prepare(
         faces: mesh.faces.clone(),
     };
     let topo = Topology::new(&norm);
-    norm.positions = smooth::taubin(&norm, &topo, params.smoothing_iterations);
+    let passes = keycomp_harris::smoothing_passes(
+        &norm,
+        &topo,
+        params.smoothing_iterations,
+        params.smoothing_length,
+        keycomp_harris::UnitArea::Given(1.0),
+    );
+    norm.positions = smooth::taubin(&norm, &topo, passes);
     let normals = area_weighted_normals(&norm);
-    let fits = keycomp_harris::local_fits(&norm, &topo, &params.harris);
-    // Fits are in units of the smoothed mesh scaled to unit area; curvatures scale back.
+    // Harris parameters in the unit's lengths are fitted in the unit's frame (a fragment in
+    // its source's unit gets its source's neighbourhoods); otherwise in the smoothed surface's
+    // own unit-area frame, as detection does
+    let unit = match params.harris.length_reference {
+        keycomp_harris::LengthReference::Unit => keycomp_harris::UnitArea::Given(1.0),
+        _ => keycomp_harris::UnitArea::Own,
+    };
+    let fits = keycomp_harris::local_fits_in(&norm, &topo, &params.harris, unit);
+    // Fits are in units of the smoothed mesh scaled to unit area (or already in the unit's
+    // frame); curvatures scale back.
     let norm_area = geometry::total_area(&norm);
-    let to_len = if norm_area > 0.0 {
+    let to_len = if unit == keycomp_harris::UnitArea::Given(1.0) {
+        1.0
+    } else if norm_area > 0.0 {
         1.0 / norm_area.sqrt()
     } else {
         1.0

@@ -56,9 +56,9 @@ use std::borrow::Cow;
 use keycomp_mesh::{Mesh, Topology, VertexId};
 
 pub use fit::{fit_quadratic, response_from_coefficients};
-pub use params::{HarrisError, HarrisParams, LengthReference, Neighborhood, Selection};
+pub use params::{HarrisError, HarrisParams, LengthReference, Neighborhood, Selection, UnitArea};
 pub use response::LocalFit;
-pub use select::{local_maxima, select_keypoints};
+pub use select::{local_maxima, select_keypoints, select_keypoints_in};
 pub use size::{moment_diagonal, reference_length};
 
 /// Responses and keypoints of one mesh.
@@ -79,13 +79,25 @@ pub struct HarrisResult {
 /// mismatched topology, a mesh of zero area or non-finite extent, every response is NaN, and
 /// out-of-range parameters are clamped (rings and points to their minimum).
 pub fn harris_response(mesh: &Mesh, topo: &Topology, params: &HarrisParams) -> Vec<f64> {
+    harris_response_in(mesh, topo, params, UnitArea::Own)
+}
+
+/// [`harris_response`] in the unit-area frame of `unit` (the area that counts as 1) instead of
+/// the mesh's own area.
+pub fn harris_response_in(
+    mesh: &Mesh,
+    topo: &Topology,
+    params: &HarrisParams,
+    unit: UnitArea,
+) -> Vec<f64> {
     let n = mesh.num_vertices();
     if topo.num_vertices() != n {
         return vec![f64::NAN; n];
     }
-    let mesh = smoothed(mesh, topo, params);
+    let unit = unit.resolved(mesh);
+    let mesh = smoothed(mesh, topo, params, unit);
     let edges = response::edge_lengths(&mesh, topo, params);
-    match response::Context::new(&mesh, topo, params, &edges) {
+    match response::Context::new(&mesh, topo, params, &edges, unit) {
         Some(ctx) => response::all_responses(&ctx),
         None => vec![f64::NAN; n],
     }
@@ -97,13 +109,24 @@ pub fn harris_response(mesh: &Mesh, topo: &Topology, params: &HarrisParams) -> V
 /// the fit than the response (e.g. curvatures). Parallel over vertices; never panics (a
 /// mismatched topology or a degenerate mesh gives `None` everywhere).
 pub fn local_fits(mesh: &Mesh, topo: &Topology, params: &HarrisParams) -> Vec<Option<LocalFit>> {
+    local_fits_in(mesh, topo, params, UnitArea::Own)
+}
+
+/// [`local_fits`] in the unit-area frame of `unit` instead of the mesh's own area.
+pub fn local_fits_in(
+    mesh: &Mesh,
+    topo: &Topology,
+    params: &HarrisParams,
+    unit: UnitArea,
+) -> Vec<Option<LocalFit>> {
     let n = mesh.num_vertices();
     if topo.num_vertices() != n {
         return vec![None; n];
     }
-    let mesh = smoothed(mesh, topo, params);
+    let unit = unit.resolved(mesh);
+    let mesh = smoothed(mesh, topo, params, unit);
     let edges = response::edge_lengths(&mesh, topo, params);
-    match response::Context::new(&mesh, topo, params, &edges) {
+    match response::Context::new(&mesh, topo, params, &edges, unit) {
         Some(ctx) => response::all_fits(&ctx),
         None => vec![None; n],
     }
@@ -121,20 +144,74 @@ pub fn local_fit(
     if topo.num_vertices() != mesh.num_vertices() || v as usize >= mesh.num_vertices() {
         return None;
     }
-    let mesh = smoothed(mesh, topo, params);
+    let unit = UnitArea::Own.resolved(mesh);
+    let mesh = smoothed(mesh, topo, params, unit);
     let edges = response::edge_lengths(&mesh, topo, params);
-    let ctx = response::Context::new(&mesh, topo, params, &edges)?;
+    let ctx = response::Context::new(&mesh, topo, params, &edges, unit)?;
     let mut s = response::Scratch::new(mesh.num_vertices());
     response::local_fit_with(&ctx, v, &mut s)
 }
 
-/// The mesh the responses are computed on: `mesh` itself, or with
-/// [`HarrisParams::smoothing_iterations`] > 0 a copy smoothed by that many Taubin λ|μ pairs
-/// (boundary vertices included). The topology is the same either way.
-fn smoothed<'m>(mesh: &'m Mesh, topo: &Topology, params: &HarrisParams) -> Cow<'m, Mesh> {
-    let n = params
-        .smoothing_iterations
-        .min(HarrisParams::MAX_SMOOTHING_ITERATIONS);
+/// Taubin λ|μ pairs that [`HarrisParams::smoothing_length`] (or, without it,
+/// [`HarrisParams::smoothing_iterations`]) asks for on `mesh` in the frame of `unit`: with a
+/// length ℓ, `round((ℓ / ē)⁴)` for ē the mean edge length in that frame; at most
+/// [`HarrisParams::MAX_SMOOTHING_ITERATIONS`] either way.
+///
+/// Why the fourth power: one pair multiplies the component of graph frequency k (an
+/// eigenvalue of the umbrella operator) by `(1 − λk)(1 − μk) = 1 + 0.03k − 0.265k²`
+/// (`keycomp_mesh::smooth`), so n pairs damp frequencies above the pass band like
+/// `exp(−0.265·n·k²)`; a spatial frequency ω has k ≈ c·(ωē)², so the damping is fixed by
+/// n·ē⁴. On a canonical surface (mean edge 0.011 unit lengths) ℓ = 0.0257 is 30 pairs; on a
+/// mesh of twice its resolution, 16 times as many.
+pub fn smoothing_passes(
+    mesh: &Mesh,
+    topo: &Topology,
+    smoothing_iterations: usize,
+    smoothing_length: Option<f64>,
+    unit: UnitArea,
+) -> usize {
+    let passes = match smoothing_length {
+        None => smoothing_iterations,
+        Some(length) => {
+            let (mut sum, mut count) = (0.0, 0usize);
+            for v in 0..topo.num_vertices() as VertexId {
+                let p = mesh.positions[v as usize];
+                for &w in topo.neighbors(v) {
+                    if w > v {
+                        sum += (mesh.positions[w as usize] - p).norm();
+                        count += 1;
+                    }
+                }
+            }
+            let area = unit.area(mesh);
+            if count == 0 || !(area > 0.0 && sum > 0.0) {
+                return 0;
+            }
+            let edge = sum / count as f64 / area.sqrt();
+            let n = (length / edge).powi(4).round();
+            // `as` saturates (NaN → 0)
+            n as usize
+        }
+    };
+    passes.min(HarrisParams::MAX_SMOOTHING_ITERATIONS)
+}
+
+/// The mesh the responses are computed on: `mesh` itself, or, when smoothing is asked for
+/// ([`smoothing_passes`]), a copy smoothed by that many Taubin λ|μ pairs (boundary vertices
+/// included). The topology is the same either way.
+fn smoothed<'m>(
+    mesh: &'m Mesh,
+    topo: &Topology,
+    params: &HarrisParams,
+    unit: UnitArea,
+) -> Cow<'m, Mesh> {
+    let n = smoothing_passes(
+        mesh,
+        topo,
+        params.smoothing_iterations,
+        params.smoothing_length,
+        unit,
+    );
     if n == 0 {
         return Cow::Borrowed(mesh);
     }
@@ -150,15 +227,36 @@ pub fn detect(
     topo: &Topology,
     params: &HarrisParams,
 ) -> Result<HarrisResult, HarrisError> {
+    detect_in(mesh, topo, params, UnitArea::Own)
+}
+
+/// [`detect`] in the unit-area frame of `unit` (the area that counts as 1: responses,
+/// [`LengthReference::Unit`] radii, [`Selection::PerArea`] budgets and
+/// [`HarrisParams::smoothing_length`] are measured in it) instead of the mesh's own area.
+pub fn detect_in(
+    mesh: &Mesh,
+    topo: &Topology,
+    params: &HarrisParams,
+    unit: UnitArea,
+) -> Result<HarrisResult, HarrisError> {
     params.validate()?;
+    if let UnitArea::Given(a) = unit
+        && !(a.is_finite() && a > 0.0)
+    {
+        return Err(HarrisError::InvalidParameter {
+            name: "unit_area",
+            value: a.to_string(),
+            reason: "must be a positive area",
+        });
+    }
     if topo.num_vertices() != mesh.num_vertices() {
         return Err(HarrisError::TopologyMismatch {
             mesh: mesh.num_vertices(),
             topology: topo.num_vertices(),
         });
     }
-    let response = harris_response(mesh, topo, params);
-    let keypoints = select_keypoints(mesh, topo, &response, &params.selection);
+    let response = harris_response_in(mesh, topo, params, unit);
+    let keypoints = select_keypoints_in(mesh, topo, &response, &params.selection, unit);
     Ok(HarrisResult {
         response,
         keypoints,

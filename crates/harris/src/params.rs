@@ -64,6 +64,40 @@ pub enum LengthReference {
     /// axis-aligned box or a sphere, so the paper's fractions keep their meaning. Default.
     #[default]
     MomentDiagonal,
+    /// The length unit: the square root of the area that counts as 1 ([`UnitArea`]; the mesh's
+    /// own area unless the caller gives another). A fragment analysed in its source's unit
+    /// then gets the radii its source gets, whatever share of it the fragment keeps. For
+    /// reference, the moment diagonal of a unit-area sphere is 0.98 units.
+    Unit,
+}
+
+/// The area that counts as 1 in the unit-area frame the responses are computed in, and that
+/// [`Selection::PerArea`] budgets and [`LengthReference::Unit`] radii are measured in.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub enum UnitArea {
+    /// The mesh's own surface area (the paper's normalisation, Section 4.1).
+    #[default]
+    Own,
+    /// This area, in the mesh's units squared (> 0): for a fragment, the area of the shape it
+    /// stands for, so that it is measured in its source's unit.
+    Given(f64),
+}
+
+impl UnitArea {
+    /// [`UnitArea::Own`] as the area of `mesh` itself ([`UnitArea::Given`]): taken before a
+    /// smoothed copy is made, so that the copy (whose area smoothing shrinks a little) is
+    /// measured in the input's unit.
+    pub fn resolved(self, mesh: &keycomp_mesh::Mesh) -> UnitArea {
+        UnitArea::Given(self.area(mesh))
+    }
+
+    /// The area that counts as 1 for `mesh`, in its units squared.
+    pub fn area(self, mesh: &keycomp_mesh::Mesh) -> f64 {
+        match self {
+            UnitArea::Own => keycomp_mesh::geometry::total_area(mesh),
+            UnitArea::Given(a) => a,
+        }
+    }
 }
 
 /// How keypoints are chosen among the candidates (vertices whose response is at least every
@@ -77,6 +111,13 @@ pub enum Selection {
     Fraction(f64),
     /// The best `n` candidates (fewer if there are fewer candidates). Must be ≥ 1.
     Count(usize),
+    /// The best `round(density × area)` candidates (at least 1, at most all candidates), the
+    /// area in the unit-area frame ([`UnitArea`]): a number per unit of area, so the same
+    /// surface sampled at any density gets the same budget, and a fragment keeping the share f
+    /// of its source (measured in the source's unit) gets f times the source's. Must be finite
+    /// and > 0, at most [`Selection::MAX_DENSITY`]. Not in the paper, whose budget is a
+    /// fraction of the vertices.
+    PerArea(f64),
     /// Greedy spacing: candidates best first, skipping any closer (Euclidean) than
     /// `fraction_of_diagonal × moment diagonal` ([`crate::moment_diagonal`], a rotation
     /// invariant stand-in for the bounding-box diagonal) to an already chosen keypoint; stop
@@ -130,6 +171,14 @@ pub struct HarrisParams {
     /// `keycomp_components` uses 30 (see its docs for the measurements).
     #[serde(default)]
     pub smoothing_iterations: usize,
+    /// Smoothing given as a length instead of a number of passes: when set, the number of
+    /// Taubin λ|μ pairs is `round((length / ē)⁴)` for ē the mean edge length in the unit-area
+    /// frame ([`UnitArea`]; [`crate::smoothing_passes`]), at most
+    /// [`HarrisParams::MAX_SMOOTHING_ITERATIONS`], and [`HarrisParams::smoothing_iterations`]
+    /// is ignored, so that the same surface sampled at another density is smoothed alike.
+    /// Default `None` (the count applies). Not in the paper.
+    #[serde(default)]
+    pub smoothing_length: Option<f64>,
     /// A vertex whose neighbourhood reaches the mesh's boundary gets no response (NaN), so it
     /// is never a keypoint: its quadratic is fitted to a one-sided neighbourhood, and along
     /// the ragged border of a scan or a fragment such fits give the largest responses of the
@@ -151,6 +200,7 @@ impl Default for HarrisParams {
             k: 0.04,
             selection: Selection::Fraction(0.01),
             smoothing_iterations: 0,
+            smoothing_length: None,
             skip_boundary: false,
         }
     }
@@ -171,6 +221,10 @@ fn invalid(name: &'static str, value: impl std::fmt::Display, reason: &'static s
 }
 
 impl Selection {
+    /// The largest accepted [`Selection::PerArea`] density (keypoints per unit area): far
+    /// beyond any useful value (hundreds), it bounds what a recorded profile can ask for.
+    pub const MAX_DENSITY: f64 = 1e6;
+
     /// Checks the ranges documented on each variant.
     pub fn validate(&self) -> Result<(), HarrisError> {
         match *self {
@@ -186,6 +240,15 @@ impl Selection {
             Selection::Count(n) => {
                 if n == 0 {
                     return Err(invalid("selection.count", n, "must be at least 1"));
+                }
+            }
+            Selection::PerArea(d) => {
+                if !(d.is_finite() && d > 0.0 && d <= Self::MAX_DENSITY) {
+                    return Err(invalid(
+                        "selection.per_area",
+                        d,
+                        "must be a number of keypoints per unit area in (0, 1e6], e.g. 400",
+                    ));
                 }
             }
             Selection::Spacing {
@@ -232,6 +295,15 @@ impl HarrisParams {
                 "smoothing_iterations",
                 self.smoothing_iterations,
                 "must be at most 1000 (a few tens remove noise; 0 is the paper's method)",
+            ));
+        }
+        if let Some(l) = self.smoothing_length
+            && !(0.0..=1.0).contains(&l)
+        {
+            return Err(invalid(
+                "smoothing_length",
+                l,
+                "must be a length in [0, 1] unit lengths, e.g. 0.026",
             ));
         }
         if self.min_rings == 0 {

@@ -6,7 +6,7 @@ use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 use rayon::prelude::*;
 
 use crate::fit::{fit_quadratic_with, response_from_coefficients};
-use crate::params::{HarrisParams, Neighborhood};
+use crate::params::{HarrisParams, LengthReference, Neighborhood, UnitArea};
 use crate::size::reference_length;
 
 const UNMARKED: u32 = u32::MAX;
@@ -116,14 +116,22 @@ impl<'a> Context<'a> {
         topo: &'a Topology,
         params: &HarrisParams,
         edges: &'a (Vec<u32>, Vec<f64>),
+        unit: UnitArea,
     ) -> Option<Self> {
-        let area = total_area(mesh);
+        let own = total_area(mesh);
+        if own.is_nan() || own <= 0.0 {
+            return None;
+        }
+        let area = unit.area(mesh);
         if !(area > 0.0 && area.is_finite()) {
             return None;
         }
         let (radius, rings) = match params.neighborhood {
             Neighborhood::Adaptive { radius_fraction } => {
-                let diag = reference_length(mesh, params.length_reference);
+                let diag = match params.length_reference {
+                    LengthReference::Unit => area.sqrt(),
+                    other => reference_length(mesh, other),
+                };
                 if !diag.is_finite() {
                     return None;
                 }

@@ -2,7 +2,9 @@
 
 use keycomp_mesh::{Mesh, Topology, VertexId};
 
-use crate::params::Selection;
+use keycomp_mesh::geometry::total_area;
+
+use crate::params::{Selection, UnitArea};
 use crate::size::moment_diagonal;
 
 /// Candidates: vertices with a (finite) response that is ≥ the response of every 1-ring
@@ -43,8 +45,27 @@ pub fn select_keypoints(
     response: &[f64],
     selection: &Selection,
 ) -> Vec<VertexId> {
+    select_keypoints_in(mesh, topo, response, selection, UnitArea::Own)
+}
+
+/// [`select_keypoints`] with [`Selection::PerArea`] budgets measured against `unit` (the area
+/// that counts as 1) instead of the mesh's own area.
+pub fn select_keypoints_in(
+    mesh: &Mesh,
+    topo: &Topology,
+    response: &[f64],
+    selection: &Selection,
+    unit: UnitArea,
+) -> Vec<VertexId> {
     let mut cands = local_maxima(topo, response);
     match *selection {
+        Selection::PerArea(density) => {
+            let area = total_area(mesh) / unit.area(mesh);
+            // `as` saturates (NaN → 0), then at least 1
+            let budget = ((density * area).round() as usize).max(1);
+            cands.truncate(budget);
+            cands
+        }
         Selection::Fraction(f) => {
             let referenced = (0..topo.num_vertices() as VertexId)
                 .filter(|&v| !topo.faces_of(v).is_empty())
@@ -131,5 +152,37 @@ mod tests {
             max: Some(4),
         };
         assert_eq!(select_keypoints(&m, &t, &flat, &sp), vec![0, 1, 2, 3]);
+    }
+
+    /// A per-area budget is the density times the area in the unit's frame: its own area
+    /// counts as 1, a given unit area scales it, and it is capped by the candidates.
+    #[test]
+    fn per_area_budget_follows_the_area_in_the_unit() {
+        let m = synth::grid(10, 10, 0.1); // 11 × 11 vertices, area 1
+        let t = Topology::new(&m);
+        let flat = vec![1.0; m.num_vertices()]; // every vertex a candidate
+        let pick = |density: f64, unit: UnitArea| {
+            select_keypoints_in(&m, &t, &flat, &Selection::PerArea(density), unit).len()
+        };
+        assert_eq!(pick(40.0, UnitArea::Own), 40);
+        // the grid taken for a quarter of a shape four times its area
+        assert_eq!(pick(40.0, UnitArea::Given(4.0)), 10);
+        assert_eq!(pick(40.0, UnitArea::Given(0.5)), 80);
+        // never fewer than one, never more than the candidates
+        assert_eq!(pick(0.1, UnitArea::Own), 1);
+        assert_eq!(pick(1e5, UnitArea::Own), m.num_vertices());
+        assert_eq!(pick(40.0, UnitArea::Given(f64::NAN)), 1);
+        assert_eq!(
+            select_keypoints(&m, &t, &flat, &Selection::PerArea(40.0)).len(),
+            40
+        );
+        // the same surface sampled four times as densely gets the same budget
+        let fine = synth::grid(20, 20, 0.05);
+        let tf = Topology::new(&fine);
+        let flat = vec![1.0; fine.num_vertices()];
+        assert_eq!(
+            select_keypoints(&fine, &tf, &flat, &Selection::PerArea(40.0)).len(),
+            40
+        );
     }
 }

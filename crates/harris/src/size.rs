@@ -5,8 +5,9 @@ use keycomp_mesh::{Mesh, Vector3};
 
 use crate::params::LengthReference;
 
-/// The mesh's diagonal as chosen by `reference`, in the mesh's units. NaN for a mesh without
-/// faces (or of zero area, for the moment diagonal).
+/// The mesh's diagonal as chosen by `reference` (for [`LengthReference::Unit`], the square root
+/// of its own area), in the mesh's units. NaN for a mesh without faces (or of zero area, for the
+/// moment diagonal and the unit).
 pub fn reference_length(mesh: &Mesh, reference: LengthReference) -> f64 {
     match reference {
         LengthReference::BoundingBoxDiagonal => {
@@ -17,6 +18,11 @@ pub fn reference_length(mesh: &Mesh, reference: LengthReference) -> f64 {
             }
         }
         LengthReference::MomentDiagonal => moment_diagonal(mesh),
+        // the mesh's own unit here; a caller with another unit area passes it to `*_in`
+        LengthReference::Unit => {
+            let a = keycomp_mesh::geometry::total_area(mesh);
+            if a > 0.0 { a.sqrt() } else { f64::NAN }
+        }
     }
 }
 

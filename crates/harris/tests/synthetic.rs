@@ -2,8 +2,8 @@
 //! invariance under rigid motions and scaling, and properties of random height fields.
 
 use keycomp_harris::{
-    HarrisParams, LengthReference, Neighborhood, Selection, detect, harris_response, local_fit,
-    local_maxima, select_keypoints,
+    HarrisParams, LengthReference, Neighborhood, Selection, UnitArea, detect, detect_in,
+    harris_response, local_fit, local_maxima, select_keypoints, smoothing_passes,
 };
 use keycomp_mesh::geometry::total_area;
 use keycomp_mesh::{Mesh, Point3, Topology, Vector3, synth};
@@ -470,4 +470,63 @@ fn smoothing_lowers_a_spike_against_real_features() {
             "{best}"
         );
     }
+}
+
+/// In a given unit (the area of the shape a mesh stands for), responses and keypoints are
+/// those of the mesh scaled by that unit: a copy scaled by s and given a unit s² times larger
+/// gets the same keypoints, and a mesh given its own area as unit is measured as with
+/// `UnitArea::Own`. Unit-length radii and smoothing lengths follow the unit, not the mesh.
+#[test]
+fn a_given_unit_area_measures_the_mesh_in_that_unit() {
+    let base = jitter(&synth::protrusion_sphere(5, 0.8, 0.25), 0.002, 11);
+    let t = Topology::new(&base);
+    let p = HarrisParams {
+        neighborhood: Neighborhood::Adaptive {
+            radius_fraction: 0.05,
+        },
+        length_reference: LengthReference::Unit,
+        selection: Selection::PerArea(120.0),
+        smoothing_length: Some(0.05),
+        ..HarrisParams::default()
+    };
+    let own = detect(&base, &t, &p).expect("valid");
+    let area = total_area(&base);
+    let given = detect_in(&base, &t, &p, UnitArea::Given(area)).expect("valid");
+    assert_eq!(own.keypoints, given.keypoints);
+    assert_eq!(own.keypoints.len(), 120);
+    let scaled = moved(&base, |q| q * 3.0);
+    let r = detect_in(&scaled, &t, &p, UnitArea::Given(9.0 * area)).expect("valid");
+    assert_eq!(r.keypoints, own.keypoints);
+    for (a, b) in own.response.iter().zip(&r.response) {
+        assert!((a - b).abs() <= 1e-6 * a.abs().max(1.0), "{a} vs {b}");
+    }
+    // taken for a quarter of a shape four times its area: a quarter of the keypoints, and
+    // larger radii and smoothing in its own frame, so other responses
+    let quarter = detect_in(&base, &t, &p, UnitArea::Given(4.0 * area)).expect("valid");
+    assert_eq!(quarter.keypoints.len(), 30);
+    assert_ne!(quarter.response, own.response);
+    // an invalid unit is refused, never a panic
+    for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        assert!(detect_in(&base, &t, &p, UnitArea::Given(bad)).is_err());
+    }
+}
+
+/// A smoothing length gives `round((ℓ / ē)⁴)` passes for the mean edge ē in the unit's
+/// frame: the same surface at twice the resolution gets sixteen times the passes.
+#[test]
+fn smoothing_lengths_become_passes_by_the_mean_edge() {
+    let coarse = synth::grid(20, 20, 0.05); // area 1, edges 0.05 and 0.05·√2
+    let fine = synth::grid(40, 40, 0.025);
+    let passes =
+        |m: &Mesh, l: f64| smoothing_passes(m, &Topology::new(m), 7, Some(l), UnitArea::Own);
+    let (c, f) = (passes(&coarse, 0.13), passes(&fine, 0.13));
+    assert!((20..=40).contains(&c), "{c}");
+    assert!((f as f64 / c as f64 - 16.0).abs() < 1.0, "{c} then {f}");
+    // without a length the count applies; never beyond the bound
+    assert_eq!(
+        smoothing_passes(&coarse, &Topology::new(&coarse), 7, None, UnitArea::Own),
+        7
+    );
+    assert_eq!(passes(&coarse, 1e9), HarrisParams::MAX_SMOOTHING_ITERATIONS);
+    assert_eq!(passes(&coarse, 0.0), 0);
 }
