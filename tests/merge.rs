@@ -37,20 +37,27 @@ fn records(index: &Path) -> Vec<(String, String, u64, u64)> {
     rows
 }
 
-/// (path, score) of every result of querying `mesh`.
+/// (score, path) of every result of querying `mesh`, best first; shapes of equal score (the
+/// ranking orders them by their id in the index, which a merge may change) by path.
 fn results(index: &Path, mesh: &Path) -> Vec<(String, String)> {
     let v: Value = serde_json::from_str(&run(&["query", s(mesh), "--index", s(index), "--json"]))
         .expect("JSON");
-    v["results"]
+    let mut rows: Vec<(f64, String)> = v["results"]
         .as_array()
         .expect("results")
         .iter()
         .map(|r| {
             (
+                r["score"].as_f64().expect("score"),
                 r["path"].as_str().expect("path").to_string(),
-                format!("{:.6}", r["score"].as_f64().expect("score")),
             )
         })
+        .collect();
+    let scores: Vec<f64> = rows.iter().map(|r| r.0).collect();
+    assert!(scores.windows(2).all(|w| w[0] >= w[1]), "{scores:?}");
+    rows.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+    rows.into_iter()
+        .map(|(score, path)| (format!("{score:.6}"), path))
         .collect()
 }
 

@@ -275,6 +275,9 @@ fn bench_repeatability_on_a_tiny_folder_writes_sane_json_and_svg() {
         // the paper's N = 30 finds nothing on a 10k-vertex shape (102 keypoints)
         "--n",
         "8",
+        // the paper's experiment: the shapes as generated
+        "--surface",
+        "as-read",
         "--out",
         s(&out),
     ];
@@ -378,8 +381,14 @@ fn bench_repeatability_runs_the_robust_preset_by_default() {
     // read beside the paper's KC-1, whose clustering it keeps
     assert!(text.contains("### robust*"), "{text}");
     assert!(text.contains("spread sphere ×1.2"), "{text}");
-    assert!(text.contains("Harris after 30 Taubin pairs"), "{text}");
-    assert!(text.contains("Keypoint budget: 2 %"), "{text}");
+    assert!(
+        text.contains("Harris after smoothing over 0.0257 unit lengths"),
+        "{text}"
+    );
+    assert!(
+        text.contains("Keypoint budget: 400 keypoints per unit area"),
+        "{text}"
+    );
     assert!(text.contains("Table 1)"), "{text}");
     let results: Value =
         serde_json::from_slice(&fs::read(out.join("results.json")).expect("results.json"))
@@ -387,9 +396,11 @@ fn bench_repeatability_runs_the_robust_preset_by_default() {
     let presets = results["presets"].as_array().expect("presets");
     assert_eq!(presets.len(), 1);
     assert_eq!(presets[0]["preset"]["name"], "robust*");
-    assert_eq!(results["harris"]["smoothing_iterations"], 30);
+    assert_eq!(results["harris"]["smoothing_length"], 0.0257);
+    assert_eq!(results["surface"]["vertices"], 10_000);
     assert_eq!(results["smacof"]["starts"], 1);
-    // a uniform scaling changes nothing: the robust components repeat exactly
+    // a uniform scaling changes nothing: the canonical surface is scaled with the shape and
+    // the robust components repeat exactly
     let scale = presets[0]["mean_overlap"]["rows"][0]["values"][0]
         .as_f64()
         .expect("scale 1 has components");

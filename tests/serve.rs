@@ -255,7 +255,19 @@ fn serve_answers_the_api_and_survives_hostile_uploads() {
     let query_mesh = keycomp_mesh::read_mesh_from_bytes(&glb, keycomp_mesh::Format::Gltf)
         .expect("a GLB keycomp reads")
         .mesh;
-    assert_eq!(query_mesh.num_faces(), fragment.mesh.num_faces());
+    // the query as analysed: its canonical surface under the result's scale hypothesis, on
+    // the fragment (its vertices projected onto it)
+    assert!(query_mesh.num_faces() > 100);
+    let (fb, qb) = (
+        keycomp_mesh::geometry::bounding_box(&fragment.mesh),
+        keycomp_mesh::geometry::bounding_box(&query_mesh),
+    );
+    // (a vertex whose projection would flatten a face stays up to the offset, about a
+    // hundredth of the size, outside)
+    let slack = 0.02 * fb.diagonal();
+    for axis in 0..3 {
+        assert!(qb.min[axis] >= fb.min[axis] - slack && qb.max[axis] <= fb.max[axis] + slack);
+    }
     assert_eq!(get(&server, "/api/queries/9999/mesh.glb").0, 404);
     // "find similar" on an indexed shape ranks that shape first
     let mut r = agent()

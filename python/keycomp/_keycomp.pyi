@@ -35,6 +35,12 @@ class Component:
 
 class DetectionResult:
     @property
+    def vertices(self) -> npt.NDArray[np.float64]:
+        """(n, 3) positions of the mesh detection ran on (the canonical surface by default): the ids are its."""
+    @property
+    def faces(self) -> npt.NDArray[np.int64]:
+        """(m, 3) triangles of that mesh."""
+    @property
     def keypoints(self) -> npt.NDArray[np.int64]:
         """Keypoints (vertex ids), best first."""
     @property
@@ -47,6 +53,8 @@ def detect(
     faces: Optional[npt.ArrayLike] = None,
     *,
     preset: str = "robust",
+    surface: Literal["canonical", "as-read"] = "canonical",
+    density: Optional[float] = None,
     fraction: Optional[float] = None,
     count: Optional[int] = None,
     r: Optional[float] = None,
@@ -55,7 +63,8 @@ def detect(
     sigma: Optional[float] = None,
     seed: Optional[int] = None,
 ) -> DetectionResult:
-    """Key-components with the parameters of `keycomp detect` (a preset, then options on top)."""
+    """Key-components with the parameters of `keycomp detect` (a preset, then options on top), on the
+    canonical surface (the default) or the mesh as given (`surface="as-read"`)."""
 
 class Match:
     query_component: int
@@ -80,10 +89,10 @@ def match(
     b: MeshLike,
     pose: float = 0.0,
     verify: Optional[float] = None,
-    surface: Optional[Literal["as-read", "canonical"]] = None,
+    surface: Optional[Literal["canonical", "as-read"]] = None,
 ) -> MatchResult:
     """Part-to-part matching of two meshes, scans or point clouds, as
-    `keycomp match A B [--pose W] [--verify W] [--surface as-read|canonical]`."""
+    `keycomp match A B [--pose W] [--verify W] [--surface canonical|as-read]`."""
 
 class Index:
     def __init__(self, path: Union[str, os.PathLike]) -> None: ...
@@ -92,7 +101,7 @@ class Index:
     def add(
         self,
         items: Sequence[Union[str, os.PathLike, Tuple[Union[str, os.PathLike], npt.ArrayLike, npt.ArrayLike]]],
-        surface: Optional[Literal["as-read", "canonical"]] = None,
+        surface: Optional[Literal["canonical", "as-read"]] = None,
     ) -> int:
         """Adds mesh, scan or point-cloud files (folders searched recursively) or
         (name, vertices, faces) meshes; returns shapes added or replaced. `surface` as
@@ -100,7 +109,7 @@ class Index:
     def add_files(
         self,
         paths: Sequence[Union[str, os.PathLike]],
-        surface: Optional[Literal["as-read", "canonical"]] = None,
+        surface: Optional[Literal["canonical", "as-read"]] = None,
     ) -> dict[str, Any]:
         """As `keycomp index add`: failures listed, the others stored (commits of 32 shapes).
         Returns {"added", "replaced", "unchanged", "failed": [{"path", "message"}], "shapes"}."""

@@ -212,10 +212,22 @@ struct DetectionResult {
     json: String,
     keypoints: Vec<u32>,
     components: Vec<Py<Component>>,
+    mesh: Mesh,
 }
 
 #[pymethods]
 impl DetectionResult {
+    /// Vertex positions (n, 3) of the mesh detection ran on (the canonical surface, or the
+    /// mesh as given): the ids of the keypoints and components are its.
+    #[getter]
+    fn vertices<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        arrays(py, &self.mesh).0
+    }
+    /// Its triangles (m, 3).
+    #[getter]
+    fn faces<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<i64>> {
+        arrays(py, &self.mesh).1
+    }
     /// Keypoints (vertex ids), best first: the ids of `keycomp detect --json`.
     #[getter]
     fn keypoints<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<i64>> {
@@ -241,15 +253,19 @@ impl DetectionResult {
 
 /// Detects key-components (Sipiran & Bustos 2013) with the parameters of `keycomp detect`:
 /// a preset ("robust", the default, or the paper's "kc1", "kc2", "kc3"), then the options
-/// given on top.
+/// given on top, on the canonical surface (`surface="canonical"`, the default; ids are its
+/// vertices, `DetectionResult.vertices` and `.faces`) or on the mesh as given
+/// (`surface="as-read"`).
 #[pyfunction]
-#[pyo3(signature = (mesh, faces=None, *, preset="robust", fraction=None, count=None, r=None, t=None, n=None, sigma=None, seed=None))]
+#[pyo3(signature = (mesh, faces=None, *, preset="robust", surface="canonical", density=None, fraction=None, count=None, r=None, t=None, n=None, sigma=None, seed=None))]
 #[allow(clippy::too_many_arguments)]
 fn detect(
     py: Python<'_>,
     mesh: &Bound<'_, PyAny>,
     faces: Option<&Bound<'_, PyAny>>,
     preset: &str,
+    surface: &str,
+    density: Option<f64>,
     fraction: Option<f64>,
     count: Option<usize>,
     r: Option<f64>,
@@ -263,8 +279,10 @@ fn detect(
             "unknown preset '{preset}' (robust, kc1, kc2 or kc3)"
         ))
     })?;
+    let canonical = surface_choice(Some(surface))?.unwrap_or(true);
     let options = DetectOptions {
         preset,
+        density,
         fraction,
         count,
         r,
@@ -275,9 +293,21 @@ fn detect(
         ..Default::default()
     };
     let input = mesh_input(mesh, faces)?;
-    let (json, det): (String, Detection) = py.detach(|| -> PyResult<_> {
+    let (json, det, analysed): (String, Detection, Mesh) = py.detach(|| -> PyResult<_> {
         let (mesh, name) = input.load()?;
-        let params = options.params();
+        let mut params = options.params();
+        let mesh = if canonical {
+            // as `keycomp detect`: no keypoints from fits that reach a border
+            params.harris.skip_boundary = true;
+            keycomp_core::analysis::canonical_surface(
+                &keycomp_mesh::Geometry::Mesh(mesh),
+                &Default::default(),
+            )
+            .map_err(|e| py_err(format!("{name}: no canonical surface: {e}"), false))?
+            .mesh
+        } else {
+            mesh
+        };
         let det = detect_components(&mesh, &params).map_err(|e| {
             py_err(
                 format!("{name}: key-component detection failed: {e}"),
@@ -287,7 +317,7 @@ fn detect(
         let json =
             keycomp_core::json::DetectionJson::<()>::new(&name, &mesh, &det, &params, preset, "kc");
         let json = serde_json::to_string(&json).map_err(|e| py_err(e, false))?;
-        Ok((json, det))
+        Ok((json, det, mesh))
     })?;
     let components = det
         .components
@@ -310,6 +340,7 @@ fn detect(
         json,
         keypoints: det.keypoints,
         components,
+        mesh: analysed,
     })
 }
 
@@ -408,8 +439,8 @@ fn surface_choice(surface: Option<&str>) -> PyResult<Option<bool>> {
 /// Matches two meshes part to part, as `keycomp match A B`; `pose` weighs the pose check as
 /// `keycomp match --pose` does (0–1, default 0), `verify` geometric verification as
 /// `keycomp match --verify` does (0–1, or None, the default: automatic), `surface` is
-/// `keycomp match --surface`: "as-read" (the default) or "canonical" (both sides remade as
-/// their canonical surface; point clouds always are).
+/// `keycomp match --surface`: "canonical" (the default: both sides remade as their canonical
+/// surface) or "as-read" (the meshes as given; point clouds still get their canonical surface).
 #[pyfunction(name = "match", signature = (a, b, pose=0.0, verify=None, surface=None))]
 fn match_meshes(
     py: Python<'_>,
@@ -421,7 +452,7 @@ fn match_meshes(
 ) -> PyResult<MatchResult> {
     let pose = check_pose_weight(pose).map_err(analysis_err)?;
     let verify = check_verify_weight(verify).map_err(analysis_err)?;
-    let canonical = surface_choice(surface)?.unwrap_or(false);
+    let canonical = surface_choice(surface)?.unwrap_or(true);
     let (a, b) = (mesh_input(a, None)?, mesh_input(b, None)?);
     py.detach(|| {
         let profile = Profile::current(&DetectOptions::default().retrieval_params())
@@ -480,8 +511,8 @@ impl Index {
     /// recursively) or `(name, vertices, faces)` tuples of meshes in memory, stored under
     /// `name`. Files and meshes already indexed with the same content are skipped. Returns the
     /// number of shapes added or replaced. A mesh that cannot be analysed raises, and nothing
-    /// of the call is stored. `surface` is `keycomp index add --surface`: "as-read" or
-    /// "canonical", recorded by a new index (default "as-read"); another than the index's
+    /// of the call is stored. `surface` is `keycomp index add --surface`: "canonical" or
+    /// "as-read", recorded by a new index (default "canonical"); another than the index's
     /// raises.
     #[pyo3(signature = (items, surface=None))]
     fn add(

@@ -10,11 +10,12 @@ use keycomp_harris::HarrisParams;
 /// Detection options shared by the commands that detect key-components.
 #[derive(Debug, Clone, clap::Args)]
 pub struct DetectArgs {
-    /// Preset: robust (keycomp's: KC-1's clustering on Harris responses of a smoothed copy,
-    /// 2 % of the vertices as keypoints, spheres from the keypoints' spread; repeats best under
-    /// noise and poses, BENCHMARKS.md section 3), or one of the paper's (Section 4.3): kc1
-    /// (R 0.15, T 0.30, N 30), kc2 (N 20), kc3 (R 0.10, T 0.20, N 30). Default: robust for
-    /// `detect`, `render` and `bench detect`; kc1 for `index add`, `query` and `match`.
+    /// Preset: robust (the default; keycomp's: KC-1's clustering R 0.15, T 0.30, N 30 on
+    /// Harris responses of a copy smoothed over 0.06 unit lengths, 400 keypoints per unit area,
+    /// neighbourhoods of 0.02 unit lengths, spheres from the keypoints' spread: every budget
+    /// and length per unit of the source's area and length; BENCHMARKS.md, *Repeatability*),
+    /// or one of the paper's (Section 4.3), whose keypoints are 1 % of the vertices: kc1
+    /// (R 0.15, T 0.30, N 30), kc2 (N 20), kc3 (R 0.10, T 0.20, N 30).
     #[arg(long, value_parser = parse_preset)]
     pub preset: Option<Preset>,
     #[command(flatten)]
@@ -30,7 +31,8 @@ pub struct DetectArgs {
     pub n: Option<usize>,
     /// Scale N down for shapes with fewer than K keypoints: N·keypoints/K, at least 5 (not in
     /// the paper: lets meshes under ~20k vertices have key-components). 0 = the paper's fixed
-    /// N. Default: 0 for `detect`, 250 for `index add`, `query` and `match`.
+    /// N. Default: 0, except with the paper's presets in `index add`, `query` and `match`
+    /// (250), whose keypoints are a fraction of the vertices.
     #[arg(long = "n-reference", value_name = "K")]
     pub n_reference: Option<usize>,
     /// Factor σ on the enclosing sphere's radius that bounds region growing [default: 1.5].
@@ -129,14 +131,14 @@ impl DetectArgs {
     }
 
     /// The preset of the detection commands (`detect`, `render`, `bench detect`): the one
-    /// given, else the robust preset.
+    /// given, else the default ([`keycomp::options::DEFAULT_PRESET`]).
     pub fn detection_preset(&self) -> Preset {
-        self.preset.unwrap_or(Preset::Robust)
+        self.preset.unwrap_or(keycomp::options::DEFAULT_PRESET)
     }
 
-    /// The preset of the retrieval commands: the one given, else KC-1.
+    /// The preset of the retrieval commands: the one given, else the default.
     pub fn retrieval_preset(&self) -> Preset {
-        self.preset.unwrap_or(Preset::Kc1)
+        self.preset.unwrap_or(keycomp::options::DEFAULT_PRESET)
     }
 
     /// The options as the library takes them, with the retrieval commands' preset.
@@ -148,6 +150,7 @@ impl DetectArgs {
     fn options_with(&self, preset: Preset) -> DetectOptions {
         DetectOptions {
             preset,
+            density: self.harris.density,
             fraction: self.harris.fraction,
             count: self.harris.count,
             rings: self.harris.rings,
@@ -184,7 +187,12 @@ impl DetectArgs {
 /// Harris 3D options shared by the commands that detect keypoints.
 #[derive(Debug, Clone, clap::Args)]
 pub struct HarrisArgs {
-    /// Keep this fraction of the vertices as keypoints, best first [default: 0.01].
+    /// Keep this many keypoints per unit area (of the source the input stands for), best
+    /// first [default: 400 with the robust preset].
+    #[arg(long, value_name = "K", group = "select")]
+    pub density: Option<f64>,
+    /// Keep this fraction of the vertices as keypoints, best first [default: 0.01 with the
+    /// paper's presets].
     #[arg(long, value_name = "F", group = "select")]
     pub fraction: Option<f64>,
     /// Keep this many keypoints, best first.
@@ -193,8 +201,9 @@ pub struct HarrisArgs {
     /// Neighbourhood: this many whole rings around each vertex.
     #[arg(long, value_name = "K", group = "nbhd")]
     pub rings: Option<usize>,
-    /// Neighbourhood: adaptive rings reaching this fraction of the bounding-box diagonal
-    /// [default: 0.01].
+    /// Neighbourhood: adaptive rings reaching this length, in unit lengths with the robust
+    /// preset [default: 0.02], as a fraction of the moment diagonal (the bounding-box diagonal
+    /// of an evenly spread surface) with the paper's [default: 0.01].
     #[arg(long, value_name = "D", group = "nbhd")]
     pub radius: Option<f64>,
 }
@@ -203,6 +212,7 @@ impl HarrisArgs {
     /// The Harris parameters these options select, starting from `base`.
     pub fn params(&self, base: HarrisParams) -> HarrisParams {
         keycomp::options::DetectOptions {
+            density: self.density,
             fraction: self.fraction,
             count: self.count,
             rings: self.rings,
@@ -244,12 +254,12 @@ impl UnitsArgs {
 /// What the commands that describe shapes (`index add`, `match`) analyse.
 #[derive(Debug, Clone, clap::Args)]
 pub struct SurfaceArgs {
-    /// The surface analysed: as-read (the mesh as the file gives it, the default for a new
-    /// index) or canonical (every input remade as one connected surface of about 10,000
-    /// vertices, the same whatever its tessellation: CAD soups, scans, meshes at other
-    /// resolutions). Point clouds are always analysed on their canonical surface. Recorded in
-    /// the index's profile; queries use the index's.
-    #[arg(long, value_name = "MODE", value_parser = ["as-read", "canonical"])]
+    /// The surface analysed: canonical (the default: every input remade as one connected
+    /// surface sampled at one density per unit of the area of the shape it stands for, the
+    /// same whatever its tessellation: CAD soups, scans, point clouds, meshes at any
+    /// resolution) or as-read (the mesh as the file gives it; point clouds still get their
+    /// canonical surface). Recorded in the index's profile; queries use the index's.
+    #[arg(long, value_name = "MODE", value_parser = ["canonical", "as-read"])]
     pub surface: Option<String>,
 }
 

@@ -284,7 +284,7 @@ pub(crate) fn paint_query_parts(
                 .map(|c| (c.area, c.vertices.as_slice(), col))
         })
         .collect();
-    paint_regions(q.mesh.num_vertices(), regions, base)
+    paint_regions(q.mesh_of(h).num_vertices(), regions, base)
 }
 
 /// A PNG of `mesh` in its [`principal_pose`], seen from the front, a little from the right
@@ -383,12 +383,12 @@ fn build(out: &Path, reader: &Reader, entries: &[QueryEntry], params: &ReportPar
             .collect();
         let qimg = format!("q{:02}.png", qi + 1);
         let cols = paint_query_parts(q, top_h, &paint, colors::GREY);
-        png(&q.mesh, &cols, params.query_size, &out.join(&qimg))?;
+        png(q.mesh_of(top_h), &cols, params.query_size, &out.join(&qimg))?;
         writeln!(
             h,
             "<div class=\"query\"><figure><img src=\"{qimg}\" width=\"{s}\" height=\"{s}\" alt=\"query {}\"><figcaption>the query: {} vertices, {} parts</figcaption></figure>",
             escape(&e.title),
-            q.mesh.num_vertices(),
+            q.mesh_of(top_h).num_vertices(),
             q.hypothesis(top_h).components.len(),
             s = params.query_size
         )?;

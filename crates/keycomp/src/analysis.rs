@@ -11,10 +11,11 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use keycomp_components::{DetectError, DetectParams, Detection, detect};
+use keycomp_components::{DetectError, DetectParams, Detection, detect, detect_in};
 use keycomp_describe::{DIM, DescribeError, DescribeParams, ShapeDescription, describe_all};
+use keycomp_harris::UnitArea;
 use keycomp_index::{ComponentRecord, ContentHash, ShapeRecord, canonical_path};
-use keycomp_mesh::{Format, Geometry, Mesh, MeshError, read_input};
+use keycomp_mesh::{Format, Geometry, Mesh, MeshError, Topology, read_input};
 use keycomp_surface::{SurfaceError, SurfaceParams};
 use rayon::prelude::*;
 
@@ -101,6 +102,17 @@ fn show(path: &Option<PathBuf>) -> String {
 pub struct Profile {
     /// [`keycomp_describe::DESCRIPTOR_VERSION`].
     pub descriptor_version: u32,
+    /// How inputs are measured ([`Profile::VERSION`] for profiles this keycomp makes):
+    /// - 1 (profiles recorded before the field existed): every input scaled to its own unit
+    ///   area, a canonical surface of a fixed vertex count whatever the input stands for, a
+    ///   fragment's scale hypotheses as larger patch radii;
+    /// - 2: every input measured in the unit of the shape it stands for (a whole shape its own
+    ///   area, a fragment under each scale hypothesis the area of the source it implies, in
+    ///   file units the collection's unit), its canonical surface sampled at one density per
+    ///   unit of that area, detection (`keycomp_components::detect_in`) and description in that
+    ///   unit.
+    #[serde(default = "first_version")]
+    pub version: u32,
     /// The canonical surface every input is analysed on; `None`: meshes as read (point clouds
     /// on a canonical surface of default parameters). Profiles written before it existed read
     /// as `None`.
@@ -112,19 +124,64 @@ pub struct Profile {
     pub detect: DetectParams,
 }
 
+fn first_version() -> u32 {
+    1
+}
+
 impl Profile {
-    /// The profile of descriptors this keycomp makes with `params` and the default description.
+    /// The profile version this keycomp records ([`Profile::version`]).
+    pub const VERSION: u32 = 2;
+
+    /// The profile of descriptors this keycomp makes with `params` and the default description,
+    /// on the default canonical surface.
     pub fn current(params: &DetectParams) -> Profile {
         Profile::with(params, DescribeParams::default())
     }
 
-    /// The profile of descriptors this keycomp makes with `params` and `describe`.
+    /// The profile of descriptors this keycomp makes with `params` and `describe`, on the
+    /// default canonical surface ([`Profile::with_surface`] changes it).
     pub fn with(params: &DetectParams, describe: DescribeParams) -> Profile {
         Profile {
             descriptor_version: keycomp_describe::DESCRIPTOR_VERSION,
+            version: Self::VERSION,
             surface: None,
             describe,
             detect: params.clone(),
+        }
+        .with_surface(Some(SurfaceParams::default()))
+    }
+
+    /// Whether inputs are measured in the unit of the shape they stand for (version 2 and
+    /// later, [`Profile::version`]).
+    pub fn in_source_units(&self) -> bool {
+        self.version >= 2
+    }
+
+    /// For an index recorded with an older profile version (`dir` its folder): what it keeps
+    /// doing and how to move it to this keycomp's analysis; `None` for a current profile.
+    pub fn migration_note(&self, dir: &Path) -> Option<String> {
+        (self.version < Self::VERSION).then(|| {
+            format!(
+                "index {} was built by an earlier keycomp (profile version {}: every input at its \
+                 own unit area, {}); it keeps answering as it was built, but this keycomp \
+                 measures new indexes in the unit of the shape each input stands for, on \
+                 canonical surfaces sampled at one density (profile version {}): to move to \
+                 it, build a new index from the same files (`keycomp index add FILES --index \
+                 NEW`, or delete the folder first)",
+                dir.display(),
+                self.version,
+                self.surface_name(),
+                Self::VERSION
+            )
+        })
+    }
+
+    /// What the profile analyses, in words: "canonical surfaces" or "meshes as read".
+    pub fn surface_name(&self) -> &'static str {
+        if self.surface.is_some() {
+            "canonical surfaces"
+        } else {
+            "meshes as read"
         }
     }
 
@@ -158,9 +215,12 @@ pub struct Analysed {
     /// Its parts at several scales, their descriptors and layout (for a query with several
     /// scale hypotheses, those of the first: hypothesis 0).
     pub description: ShapeDescription,
-    /// A query's descriptions under its other scale hypotheses, hypothesis 1 onwards
-    /// (`keycomp_describe::DescribeParams::for_query`); empty for one description.
-    pub hypotheses: Vec<ShapeDescription>,
+    /// The share of its source's area the input is taken for under hypothesis 0: 1 for a whole
+    /// shape ([`FRAGMENT_SHARES`]).
+    pub share: f64,
+    /// A query's analyses under its other scale hypotheses, hypothesis 1 onwards; empty for
+    /// one description.
+    pub hypotheses: Vec<Hypothesis>,
     /// Wall time of the analysis (reading included for a file), in milliseconds.
     pub ms: f64,
     /// The length unit it was described in.
@@ -168,6 +228,31 @@ pub struct Analysed {
     /// Whether it was analysed on its canonical surface ([`Profile::surface`]).
     pub canonical: bool,
 }
+
+/// A query's analysis under one scale hypothesis ([`Analysed::hypotheses`]).
+#[derive(Debug, Clone)]
+pub struct Hypothesis {
+    /// What detection and description ran on under this hypothesis (profile version 2
+    /// samples a canonical surface per hypothesis; version 1 shares one).
+    pub mesh: Mesh,
+    /// Its key-components.
+    pub detection: Detection,
+    /// Its parts.
+    pub description: ShapeDescription,
+    /// The share of its source's area the input is taken for.
+    pub share: f64,
+}
+
+/// The shares of its source's area a scale-free query with a boundary (a fragment, a scan) is
+/// taken for, one analysis each (profile version 2): 44 % and 20 %, one and two steps of 1.5
+/// up the patch radii's ladder (`keycomp_describe::FRAGMENT_LEVEL_FACTORS`, which version 1
+/// applies to the radii instead).
+pub const FRAGMENT_SHARES: [f64; 2] = [
+    1.0 / (keycomp_describe::FRAGMENT_LEVEL_FACTORS[0]
+        * keycomp_describe::FRAGMENT_LEVEL_FACTORS[0]),
+    1.0 / (keycomp_describe::FRAGMENT_LEVEL_FACTORS[1]
+        * keycomp_describe::FRAGMENT_LEVEL_FACTORS[1]),
+];
 
 /// What a mesh is analysed as.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -190,7 +275,7 @@ pub fn analyse_as(path: &Path, profile: &Profile, role: Role) -> Result<Analysed
     let t = Instant::now();
     let loaded = read_input(path)?;
     let mut a = analyse_in(loaded.geometry, profile, Some(path), role)?;
-    a.warnings = loaded.warnings;
+    a.warnings.splice(0..0, loaded.warnings);
     a.ms = t.elapsed().as_secs_f64() * 1e3;
     Ok(a)
 }
@@ -206,10 +291,20 @@ pub fn analyse_mesh_as(mesh: Mesh, profile: &Profile, role: Role) -> Result<Anal
     analyse_in(Geometry::Mesh(mesh), profile, None, role)
 }
 
-/// The canonical surface of `geometry` under `params` (`keycomp_surface::canonical`).
+/// The canonical surface of `geometry` under `params` (`keycomp_surface::canonical`), for a
+/// whole shape.
 pub fn canonical_surface(
     geometry: &Geometry,
     params: &SurfaceParams,
+) -> Result<keycomp_surface::Surface, SurfaceError> {
+    canonical_surface_at(geometry, params, keycomp_surface::Density::Share(1.0))
+}
+
+/// [`canonical_surface`] sampled at `density`.
+pub fn canonical_surface_at(
+    geometry: &Geometry,
+    params: &SurfaceParams,
+    density: keycomp_surface::Density,
 ) -> Result<keycomp_surface::Surface, SurfaceError> {
     let input = match geometry {
         Geometry::Mesh(mesh) => keycomp_surface::Input::Mesh(mesh),
@@ -218,10 +313,37 @@ pub fn canonical_surface(
             normals: cloud.normals.as_deref(),
         },
     };
-    keycomp_surface::canonical(input, params)
+    keycomp_surface::canonical_at(input, params, density)
 }
 
+/// What a point cloud analysed under a profile of meshes as read is told: it gets a canonical
+/// surface (it has no mesh), which the profile's other shapes do not.
+pub const CLOUD_ON_AS_READ: &str = "a point cloud is analysed on its canonical surface, but \
+meshes are analysed as read here (`--surface as-read`, or an index built so): its parts are not \
+measured as a mesh's are and may match poorly; analyse every input on its canonical surface \
+(the default; an index built with it)";
+
 fn analyse_in(
+    geometry: Geometry,
+    profile: &Profile,
+    path: Option<&Path>,
+    role: Role,
+) -> Result<Analysed, Error> {
+    let mixed = profile.surface.is_none() && matches!(geometry, Geometry::Points(_));
+    let mut a = if profile.in_source_units() {
+        Measured::new(geometry, profile, path)?.analyse(role)?
+    } else {
+        analyse_first_version(geometry, profile, path, role)?
+    };
+    if mixed {
+        a.warnings.push(CLOUD_ON_AS_READ.to_string());
+    }
+    Ok(a)
+}
+
+/// The analysis of a version 1 profile ([`Profile::version`]), kept so that indexes built
+/// with one answer queries as they were built.
+fn analyse_first_version(
     geometry: Geometry,
     profile: &Profile,
     path: Option<&Path>,
@@ -252,23 +374,202 @@ fn analyse_in(
         source,
     };
     // the hypotheses share the smoothed surface, its fits and the fronts
-    let mut hypotheses = describe_all(&mesh, &detection, &params).map_err(description_error)?;
-    if hypotheses.is_empty() {
+    let mut descriptions = describe_all(&mesh, &detection, &params).map_err(description_error)?;
+    if descriptions.is_empty() {
         return Err(description_error(DescribeError::Params(
             "no description parameters".into(),
         )));
     }
-    let description = hypotheses.remove(0);
+    let description = descriptions.remove(0);
+    let share = if descriptions.is_empty() {
+        1.0
+    } else {
+        FRAGMENT_SHARES[0]
+    };
+    let hypotheses = descriptions
+        .into_iter()
+        .zip(FRAGMENT_SHARES.iter().skip(1))
+        .map(|(description, &share)| Hypothesis {
+            mesh: mesh.clone(),
+            detection: detection.clone(),
+            description,
+            share,
+        })
+        .collect();
     Ok(Analysed {
         mesh,
         warnings: Vec::new(),
         detection,
         description,
+        share,
         hypotheses,
         ms: t.elapsed().as_secs_f64() * 1e3,
         units: profile.describe.units,
         canonical: profile.surface.is_some(),
     })
+}
+
+/// An input about to be analysed under a version 2 profile: every analysis measured in the
+/// unit of the shape the input stands for.
+struct Measured<'a> {
+    geometry: Geometry,
+    profile: &'a Profile,
+    path: Option<&'a Path>,
+    t: Instant,
+}
+
+impl<'a> Measured<'a> {
+    fn new(
+        geometry: Geometry,
+        profile: &'a Profile,
+        path: Option<&'a Path>,
+    ) -> Result<Measured<'a>, Error> {
+        Ok(Measured {
+            geometry,
+            profile,
+            path,
+            t: Instant::now(),
+        })
+    }
+
+    fn path(&self) -> Option<PathBuf> {
+        self.path.map(Path::to_path_buf)
+    }
+
+    /// The surface analysed for `share` (the share of the source's area the input is taken
+    /// for; in file units the collection's unit sets the density instead): the canonical one
+    /// sampled at the profile's density per unit of the source's area, or the mesh as read.
+    fn surface(&self, share: f64) -> Result<Mesh, Error> {
+        let density = match self.profile.describe.units {
+            keycomp_describe::Units::File { length } => {
+                keycomp_surface::Density::UnitArea(length * length)
+            }
+            keycomp_describe::Units::ScaleFree => keycomp_surface::Density::Share(share),
+        };
+        match (&self.geometry, &self.profile.surface) {
+            (Geometry::Mesh(mesh), None) => Ok(mesh.clone()),
+            (geometry, surface) => {
+                Ok(
+                    canonical_surface_at(geometry, &surface.unwrap_or_default(), density)
+                        .map_err(|source| Error::Surface {
+                            path: self.path(),
+                            source,
+                        })?
+                        .mesh,
+                )
+            }
+        }
+    }
+
+    /// Detects and describes `mesh` taken for `share` of its source: in the source's unit
+    /// (scale-free: the source's area is the mesh's over `share`; in file units the
+    /// collection's unit), its parts' positions, areas, layout and sample then brought back to
+    /// the mesh's own unit-area frame, in which matching compares a query with its targets.
+    fn hypothesis(&self, mesh: Mesh, share: f64) -> Result<Hypothesis, Error> {
+        let area = keycomp_mesh::geometry::total_area(&mesh);
+        let unit = match self.profile.describe.units {
+            keycomp_describe::Units::File { length } => length * length,
+            keycomp_describe::Units::ScaleFree => area / share,
+        };
+        let detection =
+            detect_in(&mesh, &self.profile.detect, UnitArea::Given(unit)).map_err(|source| {
+                Error::Detection {
+                    path: self.path(),
+                    source,
+                }
+            })?;
+        let mut description = describe_all(
+            &mesh,
+            &detection,
+            std::slice::from_ref(&self.profile.describe),
+        )
+        .map_err(|source| Error::Description {
+            path: self.path(),
+            source,
+        })?
+        .pop()
+        .ok_or_else(|| Error::Invalid("no description parameters".into()))?;
+        if matches!(
+            self.profile.describe.units,
+            keycomp_describe::Units::ScaleFree
+        ) && area > 0.0
+        {
+            to_own_frame(&mut description, (unit / area).sqrt());
+        }
+        Ok(Hypothesis {
+            mesh,
+            detection,
+            description,
+            share,
+        })
+    }
+
+    /// The analysis as `role`: one hypothesis for an indexed shape, a closed query or a query
+    /// in file units; one per [`FRAGMENT_SHARES`] for a scale-free query with a boundary.
+    fn analyse(self, role: Role) -> Result<Analysed, Error> {
+        let scale_free = matches!(
+            self.profile.describe.units,
+            keycomp_describe::Units::ScaleFree
+        );
+        let mut hypotheses = if role == Role::Query && scale_free && self.may_be_open() {
+            // sampled as a fragment first: if that surface has no boundary, the query is whole
+            let first = self.surface(FRAGMENT_SHARES[0])?;
+            if Topology::new(&first).boundary_vertices().is_empty() {
+                vec![self.hypothesis(self.surface(1.0)?, 1.0)?]
+            } else {
+                let mut all = vec![self.hypothesis(first, FRAGMENT_SHARES[0])?];
+                for &share in &FRAGMENT_SHARES[1..] {
+                    all.push(self.hypothesis(self.surface(share)?, share)?);
+                }
+                all
+            }
+        } else {
+            vec![self.hypothesis(self.surface(1.0)?, 1.0)?]
+        };
+        let first = hypotheses.remove(0);
+        Ok(Analysed {
+            mesh: first.mesh,
+            warnings: Vec::new(),
+            detection: first.detection,
+            description: first.description,
+            share: first.share,
+            hypotheses,
+            ms: self.t.elapsed().as_secs_f64() * 1e3,
+            units: self.profile.describe.units,
+            canonical: self.profile.surface.is_some(),
+        })
+    }
+
+    /// Whether the analysed surface may have a boundary: a point cloud, or a mesh with one (a
+    /// soup's boundaries may close on its canonical surface; a closed mesh's surface is closed).
+    fn may_be_open(&self) -> bool {
+        match &self.geometry {
+            Geometry::Points(_) => true,
+            Geometry::Mesh(mesh) => !Topology::new(mesh).boundary_vertices().is_empty(),
+        }
+    }
+}
+
+/// Brings a description made in its source's unit back to the described mesh's own unit-area
+/// frame: lengths times `k` (the source's unit over the mesh's own: `√(unit area / area)`).
+/// Areas are already shares of the mesh's own area, and descriptors are scale-free.
+fn to_own_frame(d: &mut ShapeDescription, k: f64) {
+    if !(k.is_finite() && k > 0.0) || k == 1.0 {
+        return;
+    }
+    let kf = k as f32;
+    for c in &mut d.components {
+        c.position = c.position.map(|x| x * kf);
+        c.radius *= k;
+    }
+    for x in &mut d.layout {
+        if *x != keycomp_describe::NO_DISTANCE {
+            *x *= kf;
+        }
+    }
+    for p in &mut d.sample {
+        *p = p.map(|x| x * kf);
+    }
 }
 
 impl Analysed {
@@ -282,7 +583,38 @@ impl Analysed {
     pub fn hypothesis(&self, h: usize) -> &ShapeDescription {
         match h {
             0 => &self.description,
-            _ => self.hypotheses.get(h - 1).unwrap_or(&self.description),
+            _ => self
+                .hypotheses
+                .get(h - 1)
+                .map_or(&self.description, |x| &x.description),
+        }
+    }
+
+    /// The mesh analysed under scale hypothesis `h` (the first when there is no such
+    /// hypothesis): its vertex ids are those of [`Analysed::hypothesis`]`(h)`'s parts.
+    pub fn mesh_of(&self, h: usize) -> &Mesh {
+        match h {
+            0 => &self.mesh,
+            _ => self.hypotheses.get(h - 1).map_or(&self.mesh, |x| &x.mesh),
+        }
+    }
+
+    /// The detection under scale hypothesis `h` (the first when there is no such hypothesis).
+    pub fn detection_of(&self, h: usize) -> &Detection {
+        match h {
+            0 => &self.detection,
+            _ => self
+                .hypotheses
+                .get(h - 1)
+                .map_or(&self.detection, |x| &x.detection),
+        }
+    }
+
+    /// The share of its source's area the input is taken for under scale hypothesis `h`.
+    pub fn share_of(&self, h: usize) -> f64 {
+        match h {
+            0 => self.share,
+            _ => self.hypotheses.get(h - 1).map_or(self.share, |x| x.share),
         }
     }
 
@@ -290,7 +622,11 @@ impl Analysed {
     /// others its [`Analysed::hypotheses`] in their order.
     pub fn select(&mut self, h: usize) {
         if (1..self.hypothesis_count()).contains(&h) {
-            std::mem::swap(&mut self.description, &mut self.hypotheses[h - 1]);
+            let other = &mut self.hypotheses[h - 1];
+            std::mem::swap(&mut self.description, &mut other.description);
+            std::mem::swap(&mut self.mesh, &mut other.mesh);
+            std::mem::swap(&mut self.detection, &mut other.detection);
+            std::mem::swap(&mut self.share, &mut other.share);
             self.hypotheses[..h].rotate_right(1);
         }
     }
@@ -324,7 +660,7 @@ impl Analysed {
         }
         let unit = match self.units {
             keycomp_describe::Units::ScaleFree => 1.0,
-            keycomp_describe::Units::File { .. } => self.detection.area,
+            keycomp_describe::Units::File { .. } => self.detection_of(h).area,
         };
         self.hypothesis(h)
             .components
@@ -468,9 +804,9 @@ impl Analysed {
             path: path.to_path_buf(),
             canonical_path: canonical_path(path),
             content_hash: hash,
-            vertex_count: self.mesh.num_vertices() as u32,
-            face_count: self.mesh.num_faces() as u32,
-            surface_area: self.detection.area,
+            vertex_count: self.mesh_of(h).num_vertices() as u32,
+            face_count: self.mesh_of(h).num_faces() as u32,
+            surface_area: self.detection_of(h).area,
             components: d
                 .components
                 .iter()
@@ -689,19 +1025,24 @@ mod tests {
         assert!(e.to_string().contains("missing.off"), "{e}");
     }
 
-    /// A scale-free query with a boundary is described under each scale hypothesis, with the
-    /// patch radii of `DescribeParams::for_query_with_boundary`; a closed query, an indexed shape and a
-    /// file-unit query have one description. A match keeps the best hypothesis's score, and
-    /// `select` makes it the description.
+    /// Under a version 1 profile, a scale-free query with a boundary is described under each
+    /// scale hypothesis with the patch radii of `DescribeParams::for_query_with_boundary`, on
+    /// one detection; a closed query, an indexed shape and a file-unit query have one
+    /// description. A match keeps the best hypothesis's score, and `select` makes it the
+    /// description.
     #[test]
-    fn fragment_queries_get_one_description_per_scale_hypothesis() {
+    fn first_version_fragment_queries_get_one_description_per_scale_hypothesis() {
         let whole = synth::textured_protrusion_sphere(5);
         let (half, _) = keycomp_mesh::cut::cut_by_plane(
             &whole,
             keycomp_mesh::Point3::origin(),
             keycomp_mesh::Vector3::z(),
         );
-        let profile = Profile::current(&DetectParams::default());
+        let old = |params: &DetectParams, describe: DescribeParams| Profile {
+            version: 1,
+            ..Profile::with(params, describe).with_surface(None)
+        };
+        let profile = old(&DetectParams::default(), DescribeParams::default());
         let q = analyse_mesh_as(half.clone(), &profile, Role::Query).expect("analyse");
         let hypotheses = profile.describe.for_query_with_boundary(true);
         assert_eq!(q.hypothesis_count(), hypotheses.len());
@@ -718,7 +1059,7 @@ mod tests {
         assert_eq!(indexed.description, as_indexed);
         let closed = analyse_mesh_as(whole.clone(), &profile, Role::Query).expect("analyse");
         assert_eq!(closed.hypothesis_count(), 1);
-        let file = Profile::with(
+        let file = old(
             &DetectParams::default(),
             DescribeParams {
                 units: keycomp_describe::Units::File { length: 1.0 },
@@ -740,5 +1081,91 @@ mod tests {
         assert_eq!(chosen.hypothesis_count(), q.hypothesis_count());
         let (again, h0) = chosen.match_with(&target, &params);
         assert_eq!((again.score, h0), (m.score, 0));
+    }
+
+    /// Under the current profile a scale-free query with a boundary is analysed once per
+    /// share of [`FRAGMENT_SHARES`]: its canonical surface sampled at the density of the
+    /// source that share implies (about share × the budget's vertices), detected and described
+    /// in that source's unit, its positions and sample in its own unit-area frame. An indexed
+    /// shape, a closed query and a query in file units are analysed once. `select` swaps a
+    /// hypothesis's mesh, detection and description in together.
+    #[test]
+    fn fragment_queries_get_one_analysis_per_share_of_their_source() {
+        let whole = synth::textured_protrusion_sphere(5);
+        let (half, _) = keycomp_mesh::cut::cut_by_plane(
+            &whole,
+            keycomp_mesh::Point3::origin(),
+            keycomp_mesh::Vector3::z(),
+        );
+        let profile =
+            Profile::current(&crate::options::DetectOptions::default().retrieval_params());
+        assert_eq!(profile.version, Profile::VERSION);
+        assert!(profile.surface.is_some());
+        let budget = profile.surface.unwrap_or_default().vertices as f64;
+        let q = analyse_mesh_as(half.clone(), &profile, Role::Query).expect("analyse");
+        assert_eq!(q.hypothesis_count(), FRAGMENT_SHARES.len());
+        let extent = |sample: &[[f32; 3]]| {
+            sample
+                .iter()
+                .map(|p| (p[0] as f64).hypot(p[1] as f64))
+                .fold(0.0, f64::max)
+        };
+        let own = extent(
+            &analyse_mesh(half.clone(), &profile)
+                .expect("analyse")
+                .description
+                .sample,
+        );
+        for (h, &share) in FRAGMENT_SHARES.iter().enumerate() {
+            assert_eq!(q.share_of(h), share);
+            let n = q.mesh_of(h).num_vertices() as f64;
+            assert!(
+                (n / (share * budget) - 1.0).abs() < 0.35,
+                "hypothesis {h}: {n} vertices"
+            );
+            // the description's ids are its own mesh's
+            let d = q.hypothesis(h);
+            assert!(d.boundary_vertices > 0);
+            assert!(d.components.iter().all(|c| {
+                c.vertices
+                    .iter()
+                    .all(|&v| (v as usize) < q.mesh_of(h).num_vertices())
+            }));
+            // measured in the source's unit, the half of a sphere taken for a share f of a
+            // source keeps about f of it in keypoints per unit area
+            let det = q.detection_of(h);
+            assert!((det.scale - (share / det.area).sqrt()).abs() < 1e-9 * det.scale);
+            // positions and samples in the half's own unit-area frame, as an indexed half's
+            let r = extent(&d.sample);
+            assert!(
+                (r / own - 1.0).abs() < 0.05,
+                "sample extent {r}, the half's own {own}"
+            );
+        }
+        for (mesh, role) in [(whole.clone(), Role::Query), (half.clone(), Role::Indexed)] {
+            let one = analyse_mesh_as(mesh, &profile, role).expect("analyse");
+            assert_eq!(one.hypothesis_count(), 1);
+            assert_eq!(one.share, 1.0);
+        }
+        let file = Profile::with(
+            &profile.detect,
+            DescribeParams {
+                units: keycomp_describe::Units::File { length: 1.0 },
+                ..DescribeParams::default()
+            },
+        );
+        let in_file = analyse_mesh_as(half.clone(), &file, Role::Query).expect("analyse");
+        assert_eq!(in_file.hypothesis_count(), 1);
+        // select brings a hypothesis's mesh, detection and description in together
+        let mut chosen = analyse_mesh_as(half, &profile, Role::Query).expect("analyse");
+        chosen.select(1);
+        assert_eq!(chosen.mesh, *q.mesh_of(1));
+        assert_eq!(&chosen.description, q.hypothesis(1));
+        assert_eq!(chosen.share, FRAGMENT_SHARES[1]);
+        assert_eq!(chosen.mesh_of(1), &q.mesh);
+        let target = analyse_mesh(whole, &profile).expect("analyse");
+        let params = keycomp_retrieval::MatchParams::default();
+        let (m, _) = q.match_with(&target, &params);
+        assert!(m.score > 0.0);
     }
 }

@@ -102,8 +102,8 @@ pub struct AddOptions {
     /// Length unit; `None`: the index's (scale-free for a new index). Other units than an
     /// index's are refused.
     pub units: Option<Units>,
-    /// Canonical surface (`true`) or meshes as read (`false`); `None`: the index's (as read
-    /// for a new index). Another choice than an index's is refused.
+    /// Canonical surface (`true`) or meshes as read (`false`); `None`: the index's (the
+    /// canonical surface for a new index). Another choice than an index's is refused.
     pub canonical: Option<bool>,
     /// `true`: a file that cannot be analysed is listed in [`AddSummary::failed`] and the others
     /// are stored, in commits of 32 shapes (the command line). `false`: the first failure is
@@ -200,7 +200,10 @@ fn open_for_add(
             }
             // the recorded detection parameters already carry the surface's Harris setting
             let detect = options.detect.clone().unwrap_or_else(|| p.detect.clone());
-            Profile::with(&detect, p.describe).with_surface(p.surface)
+            Profile {
+                version: p.version,
+                ..Profile::with(&detect, p.describe).with_surface(p.surface)
+            }
         }
         None => {
             let detect = options
@@ -211,7 +214,7 @@ fn open_for_add(
             Profile::with(&detect, describe).with_surface(
                 options
                     .canonical
-                    .unwrap_or(false)
+                    .unwrap_or(true)
                     .then(SurfaceParams::default),
             )
         }
@@ -279,6 +282,9 @@ pub fn add_items(
         );
         areas
     })?;
+    if let Some(note) = profile.migration_note(dir) {
+        progress.warned(&note);
+    }
     let mut summary = AddSummary::default();
     let mut pending = Vec::new();
     let batch = if options.keep_going {

@@ -71,13 +71,14 @@ pub struct MatchResult {
 }
 
 /// How [`match_files`] analyses the two meshes.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct MatchOptions {
     /// Detection parameters; `None`: the retrieval default.
     pub detect: Option<DetectParams>,
     /// Length unit; a file unit not given is the square root of B's area.
     pub units: Units,
-    /// Both sides analysed on their canonical surface ([`Profile::with_surface`]).
+    /// Both sides analysed on their canonical surface ([`Profile::with_surface`]; the
+    /// default), or as read (`false`).
     pub canonical: bool,
     /// Weight of the pose check (`keycomp_retrieval::MatchParams::pose_weight`, in [0, 1];
     /// default 0: no pose check).
@@ -86,6 +87,18 @@ pub struct MatchOptions {
     /// [0, 1]); `None` (the default): automatic, by whether A has a boundary
     /// (`keycomp_retrieval::verify_weight_for`).
     pub verify_weight: Option<f64>,
+}
+
+impl Default for MatchOptions {
+    fn default() -> Self {
+        MatchOptions {
+            detect: None,
+            units: Units::default(),
+            canonical: true,
+            pose_weight: 0.0,
+            verify_weight: None,
+        }
+    }
 }
 
 pub use keycomp_retrieval::verify_weight_for;

@@ -5,18 +5,27 @@ use keycomp_components::{DetectParams, GeodesicOptions, Preset, SmacofParams};
 use keycomp_harris::{HarrisParams, Neighborhood, Selection};
 
 /// N of Algorithm 1 scaled for small shapes in the retrieval commands (`index add`, `query`,
-/// `match`) when not given: KC-1 with N = 30 for shapes of at least 250 keypoints (25k
-/// vertices), scaled down below (see BENCHMARKS.md, *Small meshes*).
+/// `match`) when not given and the keypoints are a fraction of the vertices (the paper's
+/// presets): N = 30 for shapes of at least 250 keypoints (25k vertices), scaled down below.
+/// A per-area keypoint budget (the robust preset) needs no scaling: every shape gets
+/// keypoints in proportion to its area in its source's unit.
 pub const RETRIEVAL_N_REFERENCE: usize = 250;
 
-/// Detection options: a preset of Section 4.3 of the paper, then each option given on top.
-/// `None` keeps the preset's (or the default) value.
-#[derive(Debug, Clone, Default, PartialEq)]
+/// The preset of every command and binding when none is given: [`Preset::Robust`], whose
+/// budgets and lengths are per unit of area and length.
+pub const DEFAULT_PRESET: Preset = Preset::Robust;
+
+/// Detection options: a preset of Section 4.3 of the paper or keycomp's robust preset, then
+/// each option given on top. `None` keeps the preset's (or the default) value.
+#[derive(Debug, Clone, PartialEq)]
 pub struct DetectOptions {
-    /// KC-1 (R 0.15, T 0.30, N 30), KC-2 (N 20), KC-3 (R 0.10, T 0.20, N 30), or the robust
-    /// preset (KC-1's clustering on smoothed responses, 2 % keypoints, spread spheres).
+    /// The robust preset (the default: KC-1's clustering on smoothed responses, keypoints per
+    /// unit area, spread spheres), or KC-1 (R 0.15, T 0.30, N 30), KC-2 (N 20), KC-3 (R 0.10,
+    /// T 0.20, N 30).
     pub preset: Preset,
-    /// Keep this fraction of the vertices as keypoints (default 0.01).
+    /// Keep this many keypoints per unit area (the robust preset's default 400).
+    pub density: Option<f64>,
+    /// Keep this fraction of the vertices as keypoints (the paper's presets' default 0.01).
     pub fraction: Option<f64>,
     /// Keep this many keypoints (instead of a fraction).
     pub count: Option<usize>,
@@ -52,9 +61,38 @@ pub struct DetectOptions {
     pub classical_start: Option<bool>,
 }
 
+impl Default for DetectOptions {
+    fn default() -> Self {
+        DetectOptions {
+            preset: DEFAULT_PRESET,
+            density: None,
+            fraction: None,
+            count: None,
+            rings: None,
+            radius: None,
+            r: None,
+            t: None,
+            n: None,
+            n_reference: None,
+            sigma: None,
+            seed: None,
+            geodesic_vertices: None,
+            split_angle: None,
+            landmarks: None,
+            landmark_radius: None,
+            proxy_cell_vertices: None,
+            smacof_starts: None,
+            classical_start: None,
+        }
+    }
+}
+
 impl DetectOptions {
     /// The Harris parameters: `base` with the selection and neighbourhood options on top.
     pub fn harris(&self, mut base: HarrisParams) -> HarrisParams {
+        if let Some(d) = self.density {
+            base.selection = Selection::PerArea(d);
+        }
         if let Some(f) = self.fraction {
             base.selection = Selection::Fraction(f);
         }
@@ -134,11 +172,12 @@ impl DetectOptions {
         base
     }
 
-    /// The parameters of the retrieval commands: [`DetectOptions::params`] with N scaled for
-    /// small shapes unless `n_reference` says otherwise ([`RETRIEVAL_N_REFERENCE`]).
+    /// The parameters of the retrieval commands: [`DetectOptions::params`], with N scaled for
+    /// small shapes when the keypoints are a fraction of the vertices, unless `n_reference`
+    /// says otherwise ([`RETRIEVAL_N_REFERENCE`]).
     pub fn retrieval_params(&self) -> DetectParams {
         let mut p = self.params();
-        if self.n_reference.is_none() {
+        if self.n_reference.is_none() && matches!(p.harris.selection, Selection::Fraction(_)) {
             p.components.cluster.n_reference = Some(RETRIEVAL_N_REFERENCE);
         }
         p

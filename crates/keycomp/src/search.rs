@@ -154,6 +154,12 @@ impl Searcher {
         &self.profile
     }
 
+    /// For an index built by an earlier keycomp, what it keeps doing and how to move it to
+    /// this keycomp's analysis ([`Profile::migration_note`]); `None` otherwise.
+    pub fn migration_note(&self) -> Option<String> {
+        self.profile.migration_note(&self.dir)
+    }
+
     /// Time spent opening the index, in milliseconds.
     pub fn open_ms(&self) -> f64 {
         self.open_ms

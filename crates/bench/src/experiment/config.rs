@@ -36,6 +36,9 @@ impl Budget {
             Budget::PerShape(Selection::Count(n)) => {
                 format!("{n} keypoints on every shape (fixed count per unit normalised area)")
             }
+            Budget::PerShape(Selection::PerArea(d)) => {
+                format!("{d} keypoints per unit area on every shape (its own area counting as 1)")
+            }
             Budget::PerShape(s) => format!("{s:?} on every shape"),
             Budget::NullCalibrated(f) => format!(
                 "{} % of the null shape's vertices on the null and each of its transformed \

@@ -24,9 +24,13 @@ impl Report {
                     SphereRule::Enclosing => String::new(),
                     SphereRule::Spread { factor } => format!(", spread sphere ×{factor}"),
                 };
-                let smoothing = match self.harris.smoothing_iterations {
-                    0 => String::new(),
-                    n => format!(", Harris after {n} Taubin pairs"),
+                let smoothing = match (
+                    self.harris.smoothing_length,
+                    self.harris.smoothing_iterations,
+                ) {
+                    (Some(l), _) => format!(", Harris after smoothing over {l} unit lengths"),
+                    (None, 0) => String::new(),
+                    (None, n) => format!(", Harris after {n} Taubin pairs"),
                 };
                 format!(
                     "R {}, T {}, N {}, σ {}{sphere}{smoothing}",

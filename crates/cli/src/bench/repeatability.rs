@@ -65,17 +65,19 @@ pub struct Args {
     pub method: Vec<Method>,
     #[command(flatten)]
     pub harris: HarrisArgs,
-    /// Tessellation-independent keypoint budget: the null shape and every shape made from it
-    /// get the preset's fraction (1 %, robust's 2 %) of the null shape's vertex count (a fixed
-    /// count per unit of normalised area) instead of that fraction of their own.
-    #[arg(long, conflicts_with_all = ["fraction", "count", "surface"])]
+    /// Tessellation-independent keypoint budget for the paper's presets: the null shape and
+    /// every shape made from it get the preset's fraction (1 %) of the null shape's vertex
+    /// count (a fixed count per unit of normalised area) instead of that fraction of their
+    /// own (the robust preset's budget is per unit area already). Implies `--surface as-read`.
+    #[arg(long, conflicts_with_all = ["fraction", "count", "density"])]
     pub tessellation_independent: bool,
-    /// The surface key-components are detected on: as-read (each shape as generated, the
-    /// paper's experiment) or canonical (each shape remade as `--surface canonical` analyses
-    /// it, about 10,000 vertices whatever its tessellation, the components carried back to the
-    /// shape's vertices to be measured; Harris skips fits touching a border, as in canonical
-    /// profiles). MSER methods always run on the shapes as generated.
-    #[arg(long, value_name = "MODE", default_value = "as-read", value_parser = ["as-read", "canonical"])]
+    /// The surface key-components are detected on: canonical (the default: each shape remade
+    /// as every command analyses it, about 10,000 vertices per whole shape whatever its
+    /// tessellation, the components carried back to the shape's vertices to be measured;
+    /// Harris skips fits touching a border, as in canonical profiles) or as-read (each shape
+    /// as generated, the paper's experiment). MSER methods always run on the shapes as
+    /// generated.
+    #[arg(long, value_name = "MODE", default_value = "canonical", value_parser = ["canonical", "as-read"])]
     pub surface: String,
     /// Override R of every preset (marks it with *).
     #[arg(long = "r", value_name = "R")]
@@ -236,7 +238,9 @@ impl Args {
         if let Some(n) = self.smoothing {
             harris.smoothing_iterations = n;
         }
-        let surface = (self.surface == "canonical").then(keycomp_surface::SurfaceParams::default);
+        // a budget calibrated on the null shape's vertices is a measure of the shapes as read
+        let surface = (self.surface == "canonical" && !self.tessellation_independent)
+            .then(keycomp_surface::SurfaceParams::default);
         if surface.is_some() {
             harris.skip_boundary = true;
         }

@@ -32,10 +32,10 @@ pub struct Args {
     pub mesh: PathBuf,
     #[command(flatten)]
     pub detect: DetectArgs,
-    /// Detect on the mesh as read (the default) or on its canonical surface (`keycomp
-    /// surface`), whose vertices the output's ids then are. A point cloud is always detected on
-    /// its canonical surface.
-    #[arg(long, value_name = "MODE", value_parser = ["as-read", "canonical"])]
+    /// Detect on the canonical surface (the default; `keycomp surface`), whose vertices the
+    /// output's ids then are, or on the mesh as read. A point cloud is always detected on its
+    /// canonical surface.
+    #[arg(long, value_name = "MODE", value_parser = ["canonical", "as-read"])]
     pub surface: Option<String>,
     /// Print JSON (mesh, counts, area, preset, params, keypoints, components, timings_ms).
     #[arg(long)]
@@ -84,7 +84,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
     }
     // the file's geometry is kept when detection runs on its canonical surface (for --ply)
     let (mesh, input) = match loaded.geometry {
-        Geometry::Mesh(m) if args.surface.as_deref() != Some("canonical") => (m, None),
+        Geometry::Mesh(m) if args.surface.as_deref() == Some("as-read") => (m, None),
         geometry => {
             // as in the analysis: no keypoints from fits that reach a scan's border
             params.harris.skip_boundary = true;

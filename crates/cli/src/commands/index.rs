@@ -210,6 +210,12 @@ fn stats(args: DirArgs) -> Result<ExitCode> {
                 reader.profile()
             }
         ))?;
+        if let Some(note) = serde_json::from_str::<keycomp::Profile>(reader.profile())
+            .ok()
+            .and_then(|p| p.migration_note(&args.index))
+        {
+            output::print_text(&format!("note: {note}\n"))?;
+        }
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -262,6 +268,25 @@ fn merge(args: MergeArgs) -> Result<ExitCode> {
 
 fn verify(args: DirArgs) -> Result<ExitCode> {
     let report = keycomp_index::verify::<DIM>(&args.index)?;
+    let code = if report.is_ok() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(2)
+    };
+    if args.json {
+        output::print_json(&serde_json::json!({
+            "dir": report.dir.display().to_string(),
+            "ok": report.is_ok(),
+            "generation": report.generation,
+            "segments_listed": report.segments_listed,
+            "segments_ok": report.segments_ok,
+            "shapes": report.shapes,
+            "components": report.components,
+            "problems": report.problems.iter().map(|p| p.to_string()).collect::<Vec<_>>(),
+            "leftovers": report.leftovers.iter().map(|l| l.display().to_string()).collect::<Vec<_>>(),
+        }))?;
+        return Ok(code);
+    }
     let mut s = String::new();
     writeln!(
         s,
@@ -283,9 +308,5 @@ fn verify(args: DirArgs) -> Result<ExitCode> {
         )?;
     }
     output::print_text(&s)?;
-    Ok(if report.is_ok() {
-        ExitCode::SUCCESS
-    } else {
-        ExitCode::from(2)
-    })
+    Ok(code)
 }

@@ -92,7 +92,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
     let options = MatchOptions {
         detect: args.detect.explicit(),
         units: args.units.units()?.unwrap_or_default(),
-        canonical: args.surface.canonical().unwrap_or(false),
+        canonical: args.surface.canonical().unwrap_or(true),
         pose_weight: args.pose,
         verify_weight: args.verify.0,
     };

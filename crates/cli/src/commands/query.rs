@@ -50,37 +50,49 @@ pub struct Args {
     /// colours.
     #[arg(long, value_name = "DIR")]
     pub report: Option<PathBuf>,
-    /// Also write the analysed query to this JSON file: the mesh its parts are on (the file,
-    /// or its canonical surface) as `positions` and `faces`, and each scale hypothesis' parts
-    /// as vertex ids (`hypotheses[h][part]`, the numbering of `query_component`), for viewers
-    /// of the matched parts (`keycomp serve` uses it).
+    /// Also write the analysed query to this JSON file: per scale hypothesis, the mesh its
+    /// parts are on (the file, or its canonical surface) as `positions` and `faces`, and its
+    /// parts as vertex ids (`hypotheses[h].parts[part]`, the numbering of `query_component`),
+    /// for viewers of the matched parts (`keycomp serve` uses it).
     #[arg(long, value_name = "FILE")]
     pub analysis_out: Option<PathBuf>,
 }
 
-/// What `--analysis-out` writes.
+/// What `--analysis-out` writes: per scale hypothesis, the mesh analysed and its parts.
 #[derive(Debug, serde::Serialize, serde::Deserialize)]
 pub struct AnalysisOut {
-    /// Vertex positions of the analysed mesh.
+    /// One per scale hypothesis, in their order (`hypothesis` of a result).
+    pub hypotheses: Vec<AnalysedHypothesis>,
+}
+
+/// The query as analysed under one scale hypothesis.
+#[derive(Debug, serde::Serialize, serde::Deserialize)]
+pub struct AnalysedHypothesis {
+    /// Vertex positions of the analysed mesh (the file's, or its canonical surface sampled
+    /// for this hypothesis).
     pub positions: Vec<[f64; 3]>,
     /// Its triangles.
     pub faces: Vec<[u32; 3]>,
-    /// Per scale hypothesis, per part, its vertex ids.
-    pub hypotheses: Vec<Vec<Vec<u32>>>,
+    /// Per part (the numbering of `query_component`), its vertex ids.
+    pub parts: Vec<Vec<u32>>,
 }
 
 impl AnalysisOut {
     fn of(q: &keycomp::Analysed) -> AnalysisOut {
         AnalysisOut {
-            positions: q.mesh.positions.iter().map(|p| [p.x, p.y, p.z]).collect(),
-            faces: q.mesh.faces.clone(),
             hypotheses: (0..q.hypothesis_count())
                 .map(|h| {
-                    q.hypothesis(h)
-                        .components
-                        .iter()
-                        .map(|c| c.vertices.clone())
-                        .collect()
+                    let mesh = q.mesh_of(h);
+                    AnalysedHypothesis {
+                        positions: mesh.positions.iter().map(|p| [p.x, p.y, p.z]).collect(),
+                        faces: mesh.faces.clone(),
+                        parts: q
+                            .hypothesis(h)
+                            .components
+                            .iter()
+                            .map(|c| c.vertices.clone())
+                            .collect(),
+                    }
                 })
                 .collect(),
         }
@@ -93,6 +105,9 @@ pub fn run(args: Args) -> Result<ExitCode> {
         crate::output::check_output_folder(dir)?;
     }
     let mut searcher = Searcher::open(&args.index, args.detect.explicit().as_ref())?;
+    if let Some(note) = searcher.migration_note() {
+        eprintln!("note: {note}");
+    }
     searcher.set_pose_weight(args.pose)?;
     searcher.set_verify_weight(args.verify.0)?;
     let reader = searcher.reader();

@@ -45,6 +45,11 @@ pub struct Args {
     /// Which axis points up in the file: y (most scans and OBJ files) or z (CAD, some scans).
     #[arg(long, default_value = "y", value_parser = ["y", "z"])]
     pub up: String,
+    /// Where key-components, responses and keypoints are computed: on the canonical surface
+    /// (the default, as every command analyses a file; the colours are carried to the file's
+    /// vertices by nearest surface vertex) or on the mesh as read.
+    #[arg(long, value_name = "MODE", value_parser = ["canonical", "as-read"])]
+    pub surface: Option<String>,
     #[command(flatten)]
     pub detect: DetectArgs,
 }
@@ -60,20 +65,35 @@ pub fn run(args: Args) -> Result<ExitCode> {
     let [azimuth, elevation] = args.view[..] else {
         bail!("--view takes two numbers, azimuth and elevation in degrees: e.g. --view 30,20");
     };
-    let mesh = read_mesh(&args.mesh)?.mesh;
-    let params = args.detect.params();
-    let cols = if args.components {
-        let det = detect(&mesh, &params)
-            .with_context(|| format!("{}: key-component detection failed", args.mesh.display()))?;
-        component_colors(&mesh, &det)
-    } else if args.response || args.keypoints {
-        let topo = Topology::new(&mesh);
-        let h = keycomp_harris::detect(
-            &mesh,
-            &topo,
-            &args.detect.harris.params(HarrisParams::default()),
+    let input = read_mesh(&args.mesh)?.mesh;
+    let mut params = args.detect.params();
+    let mut harris = args.detect.harris.params(HarrisParams::default());
+    let coloured = args.components || args.response || args.keypoints;
+    let canonical = coloured && args.surface.as_deref() != Some("as-read");
+    let surface = if canonical {
+        // as in the analysis: no keypoints from fits that reach a border
+        params.harris.skip_boundary = true;
+        harris.skip_boundary = true;
+        Some(
+            keycomp::analysis::canonical_surface(
+                &keycomp_mesh::Geometry::Mesh(input.clone()),
+                &keycomp_surface::SurfaceParams::default(),
+            )
+            .with_context(|| format!("{}: no canonical surface", args.mesh.display()))?
+            .mesh,
         )
-        .with_context(|| format!("{}: Harris 3D failed", args.mesh.display()))?;
+    } else {
+        None
+    };
+    let mesh = surface.as_ref().unwrap_or(&input);
+    let cols = if args.components {
+        let det = detect(mesh, &params)
+            .with_context(|| format!("{}: key-component detection failed", args.mesh.display()))?;
+        component_colors(mesh, &det)
+    } else if args.response || args.keypoints {
+        let topo = Topology::new(mesh);
+        let h = keycomp_harris::detect(mesh, &topo, &harris)
+            .with_context(|| format!("{}: Harris 3D failed", args.mesh.display()))?;
         if args.response {
             colors::by_rank(&h.response)
         } else {
@@ -84,6 +104,19 @@ pub fn run(args: Args) -> Result<ExitCode> {
     } else {
         vec![colors::GREY; mesh.num_vertices()]
     };
+    // the picture is of the file: a canonical surface's colours go to its nearest vertices
+    let cols = match &surface {
+        Some(s) => {
+            let nearest = keycomp_surface::nearest_vertices(&input.positions, &s.positions)
+                .unwrap_or_else(|| vec![u32::MAX; input.num_vertices()]);
+            nearest
+                .iter()
+                .map(|&v| cols.get(v as usize).copied().unwrap_or(colors::GREY))
+                .collect()
+        }
+        None => cols,
+    };
+    let mesh = &input;
     let rp = RenderParams {
         size: args.size,
         azimuth_deg: azimuth,
@@ -91,7 +124,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
         up: if args.up == "z" { UpAxis::Z } else { UpAxis::Y },
         ..RenderParams::default()
     };
-    let image = render(&mesh, &cols, &rp)
+    let image = render(mesh, &cols, &rp)
         .with_context(|| format!("{}: rendering failed", args.mesh.display()))?;
     image
         .write_png(&args.out)

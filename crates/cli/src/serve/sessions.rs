@@ -13,10 +13,9 @@ use crate::report::paint_regions;
 /// Queries kept.
 pub(crate) const KEPT: usize = 16;
 
-/// One answered query.
+/// One answered query: per scale hypothesis, the mesh analysed and its parts.
 pub(crate) struct Session {
-    mesh: Mesh,
-    hypotheses: Vec<Vec<Vec<u32>>>,
+    hypotheses: Vec<(Mesh, Vec<Vec<u32>>)>,
 }
 
 impl Session {
@@ -24,50 +23,51 @@ impl Session {
     pub(crate) fn from_json(bytes: &[u8]) -> Result<Session, String> {
         let a: AnalysisOut = serde_json::from_slice(bytes)
             .map_err(|e| format!("keycomp query wrote an unreadable analysis: {e}"))?;
-        // the mesh keycomp analysed, ids kept: the parts' vertex ids are its
-        let mesh = Mesh {
-            positions: a
-                .positions
-                .iter()
-                .map(|p| Point3::new(p[0], p[1], p[2]))
-                .collect(),
-            faces: a.faces,
-        };
-        let n = mesh.num_vertices();
-        let outside = |v: &u32| *v as usize >= n;
-        if mesh.faces.iter().flatten().any(outside)
-            || a.hypotheses.iter().flatten().flatten().any(outside)
-        {
-            return Err("keycomp query wrote vertex ids outside its mesh".into());
+        let mut hypotheses = Vec::with_capacity(a.hypotheses.len());
+        for h in a.hypotheses {
+            // the mesh keycomp analysed, ids kept: the parts' vertex ids are its
+            let mesh = Mesh {
+                positions: h
+                    .positions
+                    .iter()
+                    .map(|p| Point3::new(p[0], p[1], p[2]))
+                    .collect(),
+                faces: h.faces,
+            };
+            let n = mesh.num_vertices();
+            let outside = |v: &u32| *v as usize >= n;
+            if mesh.faces.iter().flatten().any(outside) || h.parts.iter().flatten().any(outside) {
+                return Err("keycomp query wrote vertex ids outside its mesh".into());
+            }
+            hypotheses.push((mesh, h.parts));
         }
-        Ok(Session {
-            mesh,
-            hypotheses: a.hypotheses,
-        })
+        if hypotheses.is_empty() {
+            return Err("keycomp query wrote an analysis without a mesh".into());
+        }
+        Ok(Session { hypotheses })
     }
 
-    /// GLB of the mesh, the k-th of `parts` (of scale hypothesis `h`) in the palette's k-th
-    /// colour, grey elsewhere, painted as a shape's are (`paint_regions`, by share of the
-    /// vertices here); parts it does not have are skipped.
+    /// GLB of the mesh of scale hypothesis `h` (the first when there is no such hypothesis),
+    /// the k-th of `parts` in the palette's k-th colour, grey elsewhere, painted as a shape's
+    /// are (`paint_regions`, by share of the vertices here); parts it does not have are
+    /// skipped.
     pub(crate) fn glb(&self, h: usize, parts: &[usize]) -> Vec<u8> {
-        let n = self.mesh.num_vertices();
-        let regions = match self.hypotheses.get(h) {
-            Some(hyp) => parts
-                .iter()
-                .enumerate()
-                .filter_map(|(k, &p)| {
-                    let part = hyp.get(p)?;
-                    Some((
-                        part.len() as f64 / n as f64,
-                        part.as_slice(),
-                        colors::distinct(k),
-                    ))
-                })
-                .collect(),
-            None => Vec::new(),
-        };
+        let (mesh, hyp) = self.hypotheses.get(h).unwrap_or(&self.hypotheses[0]);
+        let n = mesh.num_vertices();
+        let regions = parts
+            .iter()
+            .enumerate()
+            .filter_map(|(k, &p)| {
+                let part = hyp.get(p)?;
+                Some((
+                    part.len() as f64 / n as f64,
+                    part.as_slice(),
+                    colors::distinct(k),
+                ))
+            })
+            .collect();
         let cols = paint_regions(n, regions, colors::GREY);
-        keycomp_mesh::glb_bytes(&self.mesh, Some(&cols))
+        keycomp_mesh::glb_bytes(mesh, Some(&cols))
     }
 }
 

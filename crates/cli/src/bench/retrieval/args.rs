@@ -86,13 +86,13 @@ pub struct Args {
     /// --units` records it.
     #[arg(long, default_value = "scale-free", value_parser = ["scale-free", "file"], value_name = "MODE")]
     pub units: String,
-    /// The surface analysed, as `keycomp index add --surface` records it: as-read (the meshes
-    /// and fragments as they are) or canonical (each remade as one surface of about 10,000
-    /// vertices).
-    #[arg(long, default_value = "as-read", value_parser = ["as-read", "canonical"], value_name = "MODE")]
+    /// The surface analysed, as `keycomp index add --surface` records it: canonical (each
+    /// shape and fragment remade as one surface sampled at one density per unit of its
+    /// source's area) or as-read (the meshes and fragments as they are).
+    #[arg(long, default_value = "canonical", value_parser = ["canonical", "as-read"], value_name = "MODE")]
     pub surface: String,
-    /// Ablation: the canonical surface's vertex budget, with `--surface canonical` [default:
-    /// 10,000].
+    /// Ablation: the canonical surface's vertex budget per whole shape, with `--surface
+    /// canonical` [default: 10,000].
     #[arg(long, value_name = "N")]
     pub surface_vertices: Option<usize>,
     /// Ablation: patch radii of the description (comma-separated; 'none' for no patches)
