@@ -6,9 +6,9 @@
 //!
 //! For every mesh: its canonical surface (`keycomp_surface::canonical`, the default parameters
 //! or `--vertices N`), `--samples` points (default 20,000) drawn uniformly by area on each side,
-//! and each side's distances to a dense sampling of the other (200,000 points by area; the
-//! distances are therefore upper bounds, by at most that sampling's spacing), relative to the
-//! input's bounding-box diagonal:
+//! and each one's distance to the other side's surface (the nearest point of the faces of its 8
+//! nearest points among 200,000 drawn on that side), relative to the input's bounding-box
+//! diagonal:
 //! - *surface → input*: surface the input does not have (a web across a gap, a bridge over a
 //!   crack) is far from the input;
 //! - *input → surface*: input the surface lost (a thin part, or a soup's faces hidden inside
@@ -22,6 +22,7 @@ use std::path::{Path, PathBuf};
 
 use keycomp_mesh::sample::AreaSampler;
 use keycomp_mesh::{Mesh, Point3, geometry, read_mesh};
+use keycomp_surface::trim::closest_on_triangle;
 use keycomp_surface::{Input, SurfaceParams, canonical};
 use keycomp_test_support::{bench_args, median, workspace_path};
 use kiddo::SquaredEuclidean;
@@ -32,24 +33,34 @@ use rand_chacha::ChaCha8Rng;
 /// Points of the dense sampling distances are measured to.
 const DENSE: usize = 200_000;
 
-fn samples(mesh: &Mesh, n: usize, seed: u64) -> Vec<Point3<f64>> {
+/// `n` points drawn uniformly by area on `mesh`, each with its face.
+fn samples(mesh: &Mesh, n: usize, seed: u64) -> Vec<(Point3<f64>, usize)> {
     let Some(sampler) = AreaSampler::new(mesh) else {
         return Vec::new();
     };
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    (0..n).map(|_| sampler.sample(&mut rng).0).collect()
+    (0..n).map(|_| sampler.sample(&mut rng)).collect()
 }
 
-/// Distances from each of `from` to the nearest of `to`, sorted.
-fn distances(from: &[Point3<f64>], to: &[Point3<f64>]) -> Vec<f64> {
-    let coords: Vec<[f64; 3]> = to.iter().map(|p| [p.x, p.y, p.z]).collect();
+/// Faces whose nearest point is looked for: those of this many samples nearest a point.
+const CANDIDATES: usize = 8;
+
+/// Distances from each of `from` to `to`'s surface, sorted: the nearest point of the faces
+/// of the [`CANDIDATES`] samples of the dense sampling `dense` of `to` nearest it.
+fn distances(from: &[(Point3<f64>, usize)], to: &Mesh, dense: &[(Point3<f64>, usize)]) -> Vec<f64> {
+    let coords: Vec<[f64; 3]> = dense.iter().map(|(p, _)| [p.x, p.y, p.z]).collect();
     let tree: ImmutableKdTree<f64, u32, 3, 32> = ImmutableKdTree::new_from_slice(&coords);
+    let k = std::num::NonZero::new(CANDIDATES).expect("positive");
     let mut d: Vec<f64> = from
         .iter()
-        .map(|p| {
-            tree.nearest_one::<SquaredEuclidean>(&[p.x, p.y, p.z])
-                .distance
-                .sqrt()
+        .map(|(p, _)| {
+            tree.nearest_n::<SquaredEuclidean>(&[p.x, p.y, p.z], k)
+                .iter()
+                .map(|nb| {
+                    let f = dense[nb.item as usize].1;
+                    (closest_on_triangle(p, &to.triangle(f)) - p).norm()
+                })
+                .fold(f64::INFINITY, f64::min)
         })
         .collect();
     d.sort_by(f64::total_cmp);
@@ -75,8 +86,12 @@ fn measure(path: &Path, params: &SurfaceParams, n: usize) -> Result<Row, String>
         .map_err(|e| format!("{}: {e}", path.display()))?
         .mesh;
     let diag = geometry::bounding_box(&mesh).diagonal();
-    let to_input = distances(&samples(&surface, n, 1), &samples(&mesh, DENSE, 2));
-    let to_surface = distances(&samples(&mesh, n, 3), &samples(&surface, DENSE, 4));
+    let to_input = distances(&samples(&surface, n, 1), &mesh, &samples(&mesh, DENSE, 2));
+    let to_surface = distances(
+        &samples(&mesh, n, 3),
+        &surface,
+        &samples(&surface, DENSE, 4),
+    );
     let rel = |x: f64| 100.0 * x / diag;
     Ok(Row {
         name: path.display().to_string(),

@@ -96,8 +96,9 @@ pub struct Args {
     /// RMS distance from it; the robust preset's is spread:1.2).
     #[arg(long, value_name = "RULE", value_parser = parse_sphere)]
     pub sphere: Option<SphereRule>,
-    /// Override the Taubin λ|μ pairs smoothing the copy Harris 3D runs on (the robust
-    /// preset's 30, the paper's 0), at most 1000.
+    /// Override the smoothing of the copy Harris 3D runs on by this many Taubin λ|μ pairs (the
+    /// robust preset's: a length, 0.0257 unit lengths, 30 pairs on a canonical surface; the
+    /// paper's 0), at most 1000.
     #[arg(long, value_name = "N")]
     pub smoothing: Option<usize>,
     /// Transformations, comma-separated: isometry, holes, microholes, noise, shotnoise, scale,
@@ -236,6 +237,7 @@ impl Args {
         let base = lead.map_or_else(HarrisParams::default, Preset::harris_params);
         let mut harris = self.harris.params(base);
         if let Some(n) = self.smoothing {
+            harris.smoothing_length = None;
             harris.smoothing_iterations = n;
         }
         // a budget calibrated on the null shape's vertices is a measure of the shapes as read
