@@ -431,6 +431,34 @@ fn match_pairs_a_shape_with_its_moved_copy() {
         (c["scale"].as_f64().expect("scale") - 1.0).abs() < 0.1,
         "{c}"
     );
+    // where A sits on B: the move itself, p -> (40 y + 5, -40 x, 40 z - 3)
+    let t = &c["transform"];
+    assert!(
+        (t["scale"].as_f64().expect("scale") / 40.0 - 1.0).abs() < 0.005,
+        "{t}"
+    );
+    let m: Vec<Vec<f64>> = serde_json::from_value(t["matrix"].clone()).expect("4x4");
+    let original = synth::textured_protrusion_sphere(6);
+    let mut worst = 0.0f64;
+    for p in original.positions.iter().step_by(97) {
+        let got: Vec<f64> = (0..3)
+            .map(|i| m[i][0] * p.x + m[i][1] * p.y + m[i][2] * p.z + m[i][3])
+            .collect();
+        let want = [p.y * 40.0 + 5.0, -p.x * 40.0, p.z * 40.0 - 3.0];
+        let d = (0..3)
+            .map(|i| (got[i] - want[i]).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        worst = worst.max(d);
+    }
+    // the copy's diagonal is about 110 units: every vertex within 0.5 % of it
+    assert!(worst < 0.5, "a vertex lands {worst} away");
+    let text = stdout(&keycomp(&[
+        "match",
+        a.to_str().expect("utf8"),
+        b.to_str().expect("utf8"),
+    ]));
+    assert!(text.contains("A onto B: scale"), "{text}");
 }
 
 /// `match --pose W`: a moved copy keeps its pose (every compared pair agrees, the score stays

@@ -71,10 +71,21 @@ class Match:
     target_component: int
     distance: float
 
+class Transform:
+    """Where a query sits on a shape: p' = scale * rotation @ p + translation, from the query's
+    file coordinates to the shape's (column vectors; rotation and the 4x4 matrix row-major)."""
+    rotation: list[list[float]]
+    translation: list[float]
+    scale: float
+    matrix: list[list[float]]
+    verified: float
+    rms: Optional[float]
+
 class QueryResult:
     path: str
     score: float
     matches: list[Match]
+    transform: Optional[Transform]
 
 class MatchResult:
     score: float
@@ -83,6 +94,7 @@ class MatchResult:
     scale: Optional[float]
     pose: Optional[float]
     verified: Optional[float]
+    transform: Optional[Transform]
 
 def match(
     a: MeshLike,

@@ -380,6 +380,7 @@ struct QueryResult {
     path: String,
     score: f64,
     matches: Vec<Match>,
+    transform: Option<Transform>,
 }
 
 #[pymethods]
@@ -394,6 +395,43 @@ impl QueryResult {
     }
 }
 
+/// Where a query sits on a shape: the similarity transform from the query's file coordinates
+/// to the shape's, `p' = scale·rotation·p + translation` (column vectors; `rotation` and the
+/// 4×4 `matrix` row-major), as `keycomp query --json` and `keycomp match --json` give it.
+#[pyclass(module = "keycomp", frozen, get_all)]
+#[derive(Clone)]
+struct Transform {
+    rotation: [[f64; 3]; 3],
+    translation: [f64; 3],
+    scale: f64,
+    matrix: [[f64; 4]; 4],
+    verified: f64,
+    rms: Option<f64>,
+}
+
+#[pymethods]
+impl Transform {
+    fn __repr__(&self) -> String {
+        format!(
+            "Transform(scale={:.4}, translation={:?}, verified={:.3})",
+            self.scale, self.translation, self.verified
+        )
+    }
+}
+
+impl From<&keycomp_core::transform::Transform> for Transform {
+    fn from(t: &keycomp_core::transform::Transform) -> Self {
+        Transform {
+            rotation: t.rotation,
+            translation: t.translation,
+            scale: t.scale,
+            matrix: t.matrix,
+            verified: t.verified,
+            rms: t.rms,
+        }
+    }
+}
+
 /// The result of `match(a, b)`: the score of A's parts matched in B, in [0, 1].
 #[pyclass(module = "keycomp", frozen, get_all)]
 struct MatchResult {
@@ -403,6 +441,7 @@ struct MatchResult {
     scale: Option<f64>,
     pose: Option<f64>,
     verified: Option<f64>,
+    transform: Option<Transform>,
 }
 
 #[pymethods]
@@ -482,6 +521,7 @@ fn match_meshes(
             rejected: m.rejected,
             scale: m.scale,
             pose: m.pose,
+            transform: m.transform.as_ref().map(Transform::from),
             verified: m.verified,
         })
     })
@@ -625,6 +665,7 @@ impl Index {
                     path: h.path.clone(),
                     score: h.score,
                     matches: matches_of(h),
+                    transform: h.transform.as_ref().map(Transform::from),
                 })
                 .collect())
         })
@@ -668,6 +709,7 @@ fn _keycomp(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Component>()?;
     m.add_class::<QueryResult>()?;
     m.add_class::<MatchResult>()?;
+    m.add_class::<Transform>()?;
     m.add_class::<Match>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

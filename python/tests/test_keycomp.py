@@ -206,6 +206,16 @@ def test_a_half_is_verified_on_its_source_by_default(shape, tmp_path):
     assert m.verified is not None and m.verified > 0.65, m.verified
     assert keycomp.match(half, path, verify=0.0).verified is None
     assert keycomp.match(path, (v, f)).verified is None, "a closed shape is not verified"
+    # the half moved by a known similarity is put back where it was cut from
+    c, s_ = np.cos(0.8), np.sin(0.8)
+    rot = np.array([[c, -s_, 0.0], [s_, c, 0.0], [0.0, 0.0, 1.0]])
+    moved = (half[0] @ rot.T * 3.0 + np.array([5.0, -2.0, 1.0]), half[1])
+    t = keycomp.match(moved, path).transform
+    assert t is not None and t.rms is not None
+    back = moved[0] @ (np.array(t.matrix)[:3, :3]).T + np.array(t.matrix)[:3, 3]
+    diag = np.linalg.norm(v.max(axis=0) - v.min(axis=0))
+    assert np.median(np.linalg.norm(back - half[0], axis=1)) < 0.005 * diag
+    assert abs(t.scale * 3.0 - 1.0) < 0.01, t.scale
     index = keycomp.Index(tmp_path / "verify")
     assert index.add([path]) == 1
     assert index.query(half, k=1)[0].path == str(path)

@@ -69,7 +69,7 @@ pub(crate) fn prepare(
         keycomp_harris::UnitArea::Given(1.0),
     );
     norm.positions = smooth::taubin(&norm, &topo, passes);
-    let normals = area_weighted_normals(&norm);
+    let normals = geometry::vertex_normals(&norm);
     // Harris parameters in the unit's lengths are fitted in the unit's frame (a fragment in
     // its source's unit gets its source's neighbourhoods); otherwise in the smoothed surface's
     // own unit-area frame, as detection does
@@ -115,24 +115,6 @@ pub(crate) fn prepare(
     };
     let boundary: Vec<bool> = (0..n as u32).map(|v| topo.is_boundary(v)).collect();
     Ok((surface, boundary, solver))
-}
-
-fn area_weighted_normals(mesh: &Mesh) -> Vec<Vector3<f64>> {
-    let mut n = vec![Vector3::zeros(); mesh.num_vertices()];
-    for (f, tri) in mesh.faces.iter().enumerate() {
-        let [a, b, c] = mesh.triangle(f);
-        let fnorm = (b - a).cross(&(c - a)); // length = 2·area: area weighting
-        for &v in tri {
-            n[v as usize] += fnorm;
-        }
-    }
-    for v in &mut n {
-        let len = v.norm();
-        if len > 0.0 {
-            *v /= len;
-        }
-    }
-    n
 }
 
 /// Principal curvatures of a fit, oriented by `normal` (κ1 ≥ κ2), in the fit's units.

@@ -210,6 +210,10 @@ pub struct Analysed {
     pub mesh: Mesh,
     /// What the reader noticed and tolerated (unknown header lines, dropped NaN points, …).
     pub warnings: Vec<String>,
+    /// The input as read (the mesh or the points of the file, in its coordinates): where a
+    /// pose is refined ([`crate::transform::Transform::refined`]) and a canonical surface's
+    /// colours are carried back.
+    pub input: Geometry,
     /// Its key-components (Sipiran & Bustos 2013).
     pub detection: Detection,
     /// Its parts at several scales, their descriptors and layout (for a query with several
@@ -330,11 +334,13 @@ fn analyse_in(
     role: Role,
 ) -> Result<Analysed, Error> {
     let mixed = profile.surface.is_none() && matches!(geometry, Geometry::Points(_));
+    let input = geometry.clone();
     let mut a = if profile.in_source_units() {
         Measured::new(geometry, profile, path)?.analyse(role)?
     } else {
         analyse_first_version(geometry, profile, path, role)?
     };
+    a.input = input;
     if mixed {
         a.warnings.push(CLOUD_ON_AS_READ.to_string());
     }
@@ -399,6 +405,7 @@ fn analyse_first_version(
     Ok(Analysed {
         mesh,
         warnings: Vec::new(),
+        input: no_input(),
         detection,
         description,
         share,
@@ -406,6 +413,14 @@ fn analyse_first_version(
         ms: t.elapsed().as_secs_f64() * 1e3,
         units: profile.describe.units,
         canonical: profile.surface.is_some(),
+    })
+}
+
+/// The input of an analysis before it is set (by [`analyse_in`]).
+fn no_input() -> Geometry {
+    Geometry::Points(keycomp_mesh::PointCloud {
+        positions: Vec::new(),
+        normals: None,
     })
 }
 
@@ -530,6 +545,7 @@ impl<'a> Measured<'a> {
         Ok(Analysed {
             mesh: first.mesh,
             warnings: Vec::new(),
+            input: no_input(),
             detection: first.detection,
             description: first.description,
             share: first.share,
@@ -685,6 +701,69 @@ impl Analysed {
             .iter()
             .map(|c| c.position)
             .collect()
+    }
+
+    /// Its surface as a mesh in its file's coordinates, for a pose's refinement: the mesh as
+    /// read, or, for points, its analysed (canonical) surface.
+    pub fn surface_mesh(&self) -> &Mesh {
+        match &self.input {
+            Geometry::Mesh(m) if m.num_faces() > 0 => m,
+            _ => &self.mesh,
+        }
+    }
+
+    /// The frame factor of its description under scale hypothesis `h`
+    /// ([`crate::transform::frame_factor`]): its parts' positions and sample are its analysed
+    /// mesh's coordinates times this.
+    pub fn frame_factor(&self, h: usize) -> f64 {
+        crate::transform::frame_factor(
+            self.units,
+            keycomp_mesh::geometry::total_area(self.mesh_of(h)),
+        )
+    }
+
+    /// Its view under scale hypothesis `h` with its parts' centres and its surface sample,
+    /// whatever the matching parameters ask for (for an alignment).
+    pub fn full_view_of(&self, h: usize) -> (Vec<keycomp_describe::Descriptor>, Vec<[f32; 3]>) {
+        let d = self.hypothesis(h);
+        (
+            d.components.iter().map(|c| c.descriptor).collect(),
+            d.components.iter().map(|c| c.position).collect(),
+        )
+    }
+
+    /// Where this shape, as the query under scale hypothesis `h`, sits on `target` (of frame
+    /// factor `target_frame`): the alignment of the match `m` when its verification found one,
+    /// else one found now by verification's search (`keycomp_retrieval::align_views`);
+    /// `None` when no alignment is found.
+    pub fn transform_onto(
+        &self,
+        h: usize,
+        m: &keycomp_retrieval::ShapeMatch,
+        target: keycomp_retrieval::ShapeView,
+        target_frame: f64,
+        params: &keycomp_retrieval::MatchParams,
+    ) -> Option<crate::transform::Transform> {
+        let (alignment, fitness) = match (&m.alignment, m.verified) {
+            (Some(a), Some(f)) => (*a, f),
+            _ => {
+                let (descriptors, centres) = self.full_view_of(h);
+                let query = keycomp_retrieval::ShapeView {
+                    descriptors: &descriptors,
+                    layout: &self.hypothesis(h).layout,
+                    areas: &[],
+                    centres: &centres,
+                    sample: &self.hypothesis(h).sample,
+                };
+                keycomp_retrieval::align_views(query, target, &self.match_params(params))?
+            }
+        };
+        crate::transform::Transform::from_alignment(
+            &alignment,
+            self.frame_factor(h),
+            target_frame,
+            fitness,
+        )
     }
 
     /// Vertices on the mesh's boundary: 0 for a closed surface (see

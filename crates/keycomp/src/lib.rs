@@ -8,6 +8,8 @@
 //! - [`collection`] adds files or meshes to an index, removes shapes, merges indexes;
 //! - [`search`] queries an index with a mesh: ranked shapes with their part-to-part matches;
 //! - [`matching`] matches two meshes part to part;
+//! - [`transform`] is where a query sits on a result: the similarity transform between their
+//!   files' coordinates;
 //! - [`json`] is the JSON form of a detection (`keycomp detect --json`);
 //! - [`folders`] is the rule every output folder follows.
 //!
@@ -48,6 +50,7 @@ pub mod json;
 pub mod matching;
 pub mod options;
 pub mod search;
+pub mod transform;
 
 pub use analysis::{
     Analysed, Error, Profile, Recorded, Role, analyse, analyse_as, analyse_mesh, analyse_mesh_as,

@@ -64,6 +64,9 @@ pub struct MatchResult {
     /// Geometric verification's fitness: the share of A's surface sample on B's surface once
     /// aligned (`None` when it did not run: off, or fewer than three pairs to align with).
     pub verified: Option<f64>,
+    /// Where A sits on B: the similarity transform from A's file coordinates to B's
+    /// ([`crate::transform`]); `None` when no alignment was found.
+    pub transform: Option<crate::transform::Transform>,
     /// The kept pairs, ordered by A's part.
     pub matches: Vec<PairMatch>,
     /// Where the time went.
@@ -134,6 +137,17 @@ pub fn match_analysed(
 ) -> MatchResult {
     let t = Instant::now();
     let (m, hypothesis) = a.match_with(b, params);
+    let (descriptors, centres) = b.full_view_of(0);
+    let target = keycomp_retrieval::ShapeView {
+        descriptors: &descriptors,
+        layout: &b.description.layout,
+        areas: &[],
+        centres: &centres,
+        sample: &b.description.sample,
+    };
+    let transform = a
+        .transform_onto(hypothesis, &m, target, b.frame_factor(0), params)
+        .map(|t| t.refined(a.input.positions(), b.surface_mesh(), b.file_units()));
     let matching = t.elapsed().as_secs_f64() * 1e3;
     MatchResult {
         a: names.0.to_string(),
@@ -146,6 +160,7 @@ pub fn match_analysed(
         rejected: m.rejected,
         pose: m.pose,
         verified: m.verified,
+        transform,
         matches: m
             .matches
             .iter()

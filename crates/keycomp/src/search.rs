@@ -8,6 +8,7 @@ use std::time::Instant;
 use keycomp_components::DetectParams;
 use keycomp_mesh::Mesh;
 use keycomp_retrieval::{MatchParams, Ranked, ShapeView, rank_hypotheses};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::collection::Reader;
@@ -40,6 +41,9 @@ pub struct Hit {
     /// The query's scale hypothesis that gave the score (`Analysed::hypothesis`; the matched
     /// query parts are that description's): 0 unless the query is a scale-free fragment.
     pub hypothesis: usize,
+    /// Where the query sits on the shape: the similarity transform from the query's file
+    /// coordinates to the shape's ([`crate::transform`]); `None` when no alignment was found.
+    pub transform: Option<crate::transform::Transform>,
     /// The matched parts.
     pub matches: Vec<PartMatch>,
 }
@@ -89,7 +93,12 @@ pub struct Searcher {
     open_ms: f64,
     pose_weight: f64,
     verify_weight: Option<f64>,
+    refined_results: usize,
 }
+
+/// How many of a query's best results get their transform refined on their file's surface by
+/// default ([`Searcher::set_refined_results`]).
+pub const REFINED_RESULTS: usize = 3;
 
 impl Searcher {
     /// Opens the index at `dir` for queries. The query's profile is always the index's
@@ -116,6 +125,7 @@ impl Searcher {
             open_ms: t.elapsed().as_secs_f64() * 1e3,
             pose_weight: 0.0,
             verify_weight: None,
+            refined_results: REFINED_RESULTS,
         })
     }
 
@@ -229,18 +239,25 @@ impl Searcher {
         } else {
             Vec::new()
         };
+        let transforms = ranked
+            .par_iter()
+            .enumerate()
+            .map(|(i, r)| self.transform_of(query, r, i < self.refined_results))
+            .collect::<Result<Vec<_>, Error>>()?;
         Ok(QueryResult {
             query: name.to_string(),
             components: query.description.components.len(),
             results: ranked
                 .iter()
+                .zip(transforms)
                 .enumerate()
-                .map(|(i, r)| Hit {
+                .map(|(i, (r, transform))| Hit {
                     rank: i + 1,
                     path: r.path.display().to_string(),
                     score: r.result.score,
                     verified: r.result.verified,
                     hypothesis: r.hypothesis,
+                    transform,
                     matches: r
                         .result
                         .matches
@@ -256,6 +273,68 @@ impl Searcher {
             not_returned,
             timings_ms,
         })
+    }
+
+    /// Where `query` sits on the ranked shape `r`: the alignment its verification found, or one
+    /// found now from the shape's record (a closed query is ranked without verification);
+    /// with `refine`, refined on the shape's file.
+    fn transform_of(
+        &self,
+        query: &Analysed,
+        r: &Ranked,
+        refine: bool,
+    ) -> Result<Option<crate::transform::Transform>, Error> {
+        let Some(rec) = self.reader.get(r.id)? else {
+            return Ok(None);
+        };
+        let descriptors: Vec<_> = rec.components.iter().map(|c| c.descriptor).collect();
+        let centres: Vec<[f32; 3]> = rec
+            .components
+            .iter()
+            .map(|c| c.centre.unwrap_or([f32::NAN; 3]))
+            .collect();
+        let centres: &[[f32; 3]] = if centres.iter().any(|c| c[0].is_nan()) {
+            &[]
+        } else {
+            &centres
+        };
+        let target = ShapeView {
+            descriptors: &descriptors,
+            layout: &rec.layout,
+            areas: &[],
+            centres,
+            sample: &rec.sample,
+        };
+        let frame = crate::transform::frame_factor(self.profile.describe.units, rec.surface_area);
+        let transform = query.transform_onto(
+            r.hypothesis,
+            &r.result,
+            target,
+            frame,
+            &MatchParams::default(),
+        );
+        if !refine {
+            return Ok(transform);
+        }
+        // refined on the shape's file as it was indexed (unchanged since: same content hash)
+        let unchanged = keycomp_index::ContentHash::of_file(&rec.canonical_path)
+            .is_ok_and(|h| h == rec.content_hash);
+        let file = unchanged
+            .then(|| keycomp_mesh::read_mesh(&rec.canonical_path).ok())
+            .flatten();
+        Ok(match (transform, file) {
+            (Some(t), Some(file)) => {
+                Some(t.refined(query.input.positions(), &file.mesh, query.file_units()))
+            }
+            (t, _) => t,
+        })
+    }
+
+    /// Sets how many of the best results get their transform refined on their file's surface
+    /// ([`crate::transform::Transform::refined`]; default [`REFINED_RESULTS`]): each reads
+    /// that file again, so a large `k` with all of them refined is slower.
+    pub fn set_refined_results(&mut self, n: usize) {
+        self.refined_results = n;
     }
 
     /// Analyses the query file at `path` and ranks the index for it: the `k` best shapes.

@@ -1,5 +1,5 @@
-//! Geometric quantities of a mesh: face areas, per-vertex (barycentric) areas, total area,
-//! bounding box, and normalisation to unit surface area.
+//! Geometric quantities of a mesh: face areas, per-vertex (barycentric) areas and normals,
+//! total area, bounding box, and normalisation to unit surface area.
 //!
 //! Sipiran & Bustos (2013), Section 4.1, normalise every mesh to surface area 1 so that the
 //! clustering thresholds R and T and the growth factor σ have fixed meaning; [`normalize_unit_area`]
@@ -15,6 +15,26 @@ pub fn face_areas(mesh: &Mesh) -> Vec<f64> {
             0.5 * (b - a).cross(&(c - a)).norm()
         })
         .collect()
+}
+
+/// Unit normal of each vertex: the sum of its faces' normals weighted by their areas,
+/// normalised (the faces' winding sets the side); zero for a vertex no face with an area uses.
+pub fn vertex_normals(mesh: &Mesh) -> Vec<crate::Vector3<f64>> {
+    let mut n = vec![crate::Vector3::zeros(); mesh.num_vertices()];
+    for (f, tri) in mesh.faces.iter().enumerate() {
+        let [a, b, c] = mesh.triangle(f);
+        let face = (b - a).cross(&(c - a)); // length = 2·area: area weighting
+        for &v in tri {
+            n[v as usize] += face;
+        }
+    }
+    for v in &mut n {
+        let len = v.norm();
+        if len > 0.0 {
+            *v /= len;
+        }
+    }
+    n
 }
 
 /// Barycentric area of each vertex: a third of the area of every face around it. The values sum

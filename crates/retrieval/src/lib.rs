@@ -76,6 +76,8 @@
 //! - `assign`: steps 1–2, similarity and the one-to-one assignment ([`ComponentMatch`]);
 //! - `checks`: steps 3–5, the layout, size and pose checks;
 //! - [`verify`]: step 6, geometric verification by alignment;
+//! - [`refine`]: an alignment refined to the surfaces' sampling (trimmed point-to-plane ICP),
+//!   for the pose of a query on a result;
 //! - `score`: step 7, the score ([`ShapeMatch`]) and its upper bounds;
 //! - `matching`: the steps in order for two shapes ([`match_shapes`], [`match_weighted`]);
 //! - `rank`: ranking an index's shapes against a query ([`rank`], [`rank_hypotheses`]).
@@ -85,6 +87,7 @@ mod checks;
 mod matching;
 mod params;
 mod rank;
+pub mod refine;
 mod score;
 pub mod verify;
 mod view;
@@ -100,5 +103,6 @@ pub use rank::{
     CANDIDATES_PER_COMPONENT, MATCHED_CANDIDATES, Ranked, idf_weights, rank, rank_hypotheses,
     rank_neighbours, record_areas, record_centres, record_sample,
 };
-pub use score::ShapeMatch;
+pub use score::{ShapeMatch, align_views};
+pub use verify::Alignment;
 pub use view::ShapeView;

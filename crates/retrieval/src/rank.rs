@@ -283,7 +283,7 @@ fn match_candidates(
     /// A step's outcome: a candidate assigned and open again, or matched.
     enum Step {
         Assigned(Open),
-        Matched(usize, Loaded, Scored),
+        Matched(Box<(usize, Loaded, Scored)>),
     }
     // verification runs on the shortlist only: the first stage ranks without it, and keeps
     // each assignment (the costly step) for the shortlist to finish again with verification
@@ -324,7 +324,7 @@ fn match_candidates(
                 (finish(query, v, &c.d, &first, weights, a), kept)
             }
         };
-        Ok(Step::Matched(o.at, l, scored))
+        Ok(Step::Matched(Box::new((o.at, l, scored))))
     };
     let by_score = |ranked: &mut Vec<(usize, Loaded, Scored)>| {
         ranked.sort_by(|a, b| {
@@ -377,7 +377,7 @@ fn match_candidates(
         for s in done {
             match s {
                 Step::Assigned(o) => assigned.push(o),
-                Step::Matched(at, l, scored) => ranked.push((at, l, scored)),
+                Step::Matched(m) => ranked.push(*m),
             }
         }
         by_score(&mut ranked);

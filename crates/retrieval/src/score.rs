@@ -35,6 +35,10 @@ pub struct ShapeMatch {
     /// when it did not run (off, or a shape without sample or centres).
     #[serde(default)]
     pub verified: Option<f64>,
+    /// The alignment verification found, from the query's frame (its parts' positions and
+    /// sample) to the target's; `None` when it did not run or found none.
+    #[serde(default)]
+    pub alignment: Option<verify::Alignment>,
 }
 
 impl ShapeMatch {
@@ -47,6 +51,7 @@ impl ShapeMatch {
             rejected: 0,
             pose: None,
             verified: None,
+            alignment: None,
         }
     }
 }
@@ -169,12 +174,33 @@ pub(crate) fn finish(
     let score = score * verification_factor(fitness, params);
     ShapeMatch {
         verified: fitness,
+        alignment: verified.map(|v| v.alignment()),
         pose: agreement,
         matches,
         score,
         scale,
         rejected,
     }
+}
+
+/// The alignment of `query` onto `target` as verification finds it (steps 1–3 of [`verify`])
+/// and its fitness, whatever the verification weight: the pose of a query whose ranking did
+/// not verify it (a closed shape). `None` when either view has no centres or sample, or no
+/// alignment is found.
+pub fn align_views(
+    query: ShapeView,
+    target: ShapeView,
+    params: &MatchParams,
+) -> Option<(verify::Alignment, f64)> {
+    if query.sample.is_empty()
+        || target.sample.is_empty()
+        || query.centres.is_empty()
+        || target.centres.is_empty()
+    {
+        return None;
+    }
+    let d = crate::assign::distances(query.descriptors, target.descriptors);
+    align(query, target, &d, params).map(|v| (v.alignment(), v.fitness))
 }
 
 /// Step 6's alignment of `query` onto `target` ([`verify::fitness`]) from the tentative pairs

@@ -171,6 +171,38 @@ impl Similarity {
     }
 }
 
+/// A similarity transform `x ↦ scale · rotation · x + translation` (column vectors) taking a
+/// query's frame to a target's: the alignment verification found.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Alignment {
+    /// Rotation matrix, row-major (`rotation[i][j]` is row i, column j).
+    pub rotation: [[f64; 3]; 3],
+    /// Translation.
+    pub translation: [f64; 3],
+    /// Uniform scale (1 in file units).
+    pub scale: f64,
+}
+
+impl Alignment {
+    /// `p` moved by the transform.
+    pub fn apply(&self, p: [f64; 3]) -> [f64; 3] {
+        let r = &self.rotation;
+        std::array::from_fn(|i| {
+            self.scale * (r[i][0] * p[0] + r[i][1] * p[1] + r[i][2] * p[2]) + self.translation[i]
+        })
+    }
+}
+
+impl From<Similarity> for Alignment {
+    fn from(t: Similarity) -> Self {
+        Alignment {
+            rotation: std::array::from_fn(|i| std::array::from_fn(|j| t.r[(i, j)])),
+            translation: [t.t.x, t.t.y, t.t.z],
+            scale: t.s,
+        }
+    }
+}
+
 /// What verification found: the alignment and how well the query fits under it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Verified {
@@ -181,6 +213,11 @@ pub(crate) struct Verified {
 }
 
 impl Verified {
+    /// The alignment, query frame to target frame.
+    pub fn alignment(&self) -> Alignment {
+        self.transform.into()
+    }
+
     /// Whether a query centre `q` lands within [`CENTRE_TOLERANCE`] tolerances of a target
     /// centre `t` under the alignment.
     pub fn agrees(&self, q: &[f32; 3], t: &[f32; 3]) -> bool {

@@ -162,6 +162,18 @@ pub fn run(args: Args) -> Result<ExitCode> {
                 .map(|x| format!(", {:.0} % of A on B once aligned", 100.0 * x))
                 .unwrap_or_default()
         )?;
+        if let Some(t) = &m.transform {
+            let [x, y, z] = t.translation;
+            writeln!(
+                s,
+                "A onto B: scale {:.4}, rotation {:.2}°, translation ({x:.4}, {y:.4}, {z:.4}){} (the 4×4 matrix in --json)",
+                t.scale,
+                t.angle_degrees(),
+                t.rms
+                    .map(|r| format!(", RMS {r:.3e} after refinement"))
+                    .unwrap_or_default()
+            )?;
+        }
         if !m.matches.is_empty() {
             writeln!(
                 s,

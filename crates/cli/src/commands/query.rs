@@ -32,14 +32,19 @@ pub struct Args {
     /// pose. 0 (default) ranks independently of pose, as classes of articulated shapes need.
     #[arg(long, value_name = "W", default_value_t = 0.0, value_parser = crate::args::unit_weight)]
     pub pose: f64,
-    /// Weight of geometric verification, 0–1, or auto (the default: 0.5 for a query with a
-    /// boundary, a fragment or a scan, 1 in file units or on canonical surfaces; 0 for a closed
-    /// shape): each shape's
+    /// Weight of geometric verification, 0–1, or auto (the default: for a query with a
+    /// boundary, a fragment or a scan, 1 in file units or on canonical surfaces, 0.5 on meshes
+    /// as read; 0 for a closed shape): each shape's
     /// score is scaled by 1 − W·(1 − f), f the share of the query's surface that lies on the
     /// shape once aligned by the matched parts, so a fragment's exact source ranks first. It
     /// re-ranks the 32 best candidates; those beyond count as fitness 0.
     #[arg(long, value_name = "W|auto", default_value = "auto", value_parser = crate::args::auto_or_unit_weight)]
     pub verify: crate::args::AutoWeight,
+    /// Refine the transform (where the query sits on a result, `transform` in --json) of this
+    /// many of the best results on their file's surface (point-to-plane ICP; each reads that
+    /// file again); the others keep verification's alignment.
+    #[arg(long, value_name = "N", default_value_t = keycomp::search::REFINED_RESULTS)]
+    pub refine: usize,
     #[command(flatten)]
     pub detect: DetectArgs,
     /// Print JSON.
@@ -110,6 +115,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
     }
     searcher.set_pose_weight(args.pose)?;
     searcher.set_verify_weight(args.verify.0)?;
+    searcher.set_refined_results(args.refine);
     let reader = searcher.reader();
     let (q, ranked, answer) = searcher.query_full(&args.mesh, args.k)?;
     for w in &q.warnings {
