@@ -459,6 +459,34 @@ fn match_pairs_a_shape_with_its_moved_copy() {
         b.to_str().expect("utf8"),
     ]));
     assert!(text.contains("A onto B: scale"), "{text}");
+    // --aligned writes A moved onto B: A's own mesh, its vertices where the move puts them
+    let out = dir.path().join("a-on-b.off");
+    let o = keycomp(&[
+        "match",
+        a.to_str().expect("utf8"),
+        b.to_str().expect("utf8"),
+        "--aligned",
+        out.to_str().expect("utf8"),
+    ]);
+    assert!(o.status.success(), "stderr: {}", stderr(&o));
+    let moved = read_mesh(&out).expect("the aligned copy reads").mesh;
+    assert_eq!(moved.faces, original.faces);
+    for (p, q) in original.positions.iter().zip(&moved.positions).step_by(101) {
+        let want = [p.y * 40.0 + 5.0, -p.x * 40.0, p.z * 40.0 - 3.0];
+        let d =
+            ((q.x - want[0]).powi(2) + (q.y - want[1]).powi(2) + (q.z - want[2]).powi(2)).sqrt();
+        assert!(d < 0.5, "{d}");
+    }
+    // an extension it cannot write is refused before any work, exit 2
+    let o = keycomp(&[
+        "match",
+        a.to_str().expect("utf8"),
+        b.to_str().expect("utf8"),
+        "--aligned",
+        dir.path().join("x.stl").to_str().expect("utf8"),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("x.stl"), "{}", stderr(&o));
 }
 
 /// `match --pose W`: a moved copy keeps its pose (every compared pair agrees, the score stays

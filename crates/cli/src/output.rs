@@ -86,6 +86,54 @@ pub fn write_colours_on_input(
     Ok(())
 }
 
+/// Writes `input` (a file's mesh or points) moved by `t` to `out`, in the format its extension
+/// names: `.off` (points as an OFF without faces), `.ply` (binary, grey) or `.glb`. Atomic: a
+/// failure leaves nothing half-written.
+pub fn write_moved(
+    input: &keycomp_mesh::Geometry,
+    t: &keycomp::transform::Transform,
+    out: &Path,
+) -> Result<()> {
+    use keycomp_mesh::{Geometry, Mesh, Point3};
+    let (positions, faces) = match input {
+        Geometry::Mesh(m) => (&m.positions, m.faces.clone()),
+        Geometry::Points(c) => (&c.positions, Vec::new()),
+    };
+    let moved = Mesh {
+        positions: positions
+            .iter()
+            .map(|p| {
+                let [x, y, z] = t.apply([p.x, p.y, p.z]);
+                Point3::new(x, y, z)
+            })
+            .collect(),
+        faces,
+    };
+    let ext = out
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .unwrap_or_default();
+    match ext.as_str() {
+        "off" => keycomp_mesh::write_off(&moved, out)?,
+        "ply" => keycomp_mesh::write_ply_colored(
+            &moved,
+            &vec![crate::colors::GREY; moved.positions.len()],
+            out,
+        )?,
+        "glb" if !moved.faces.is_empty() => keycomp_mesh::write_glb(&moved, out)?,
+        "glb" => anyhow::bail!(
+            "{}: a point cloud cannot be written as GLB; use .off or .ply",
+            out.display()
+        ),
+        _ => anyhow::bail!(
+            "{}: the aligned copy is written as .off, .ply or .glb (by its extension)",
+            out.display()
+        ),
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

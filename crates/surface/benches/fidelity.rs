@@ -1,6 +1,6 @@
 //! How faithful the canonical surface is to its input: two-sided distances and the area ratio.
 //!
-//! `cargo bench -p keycomp-surface --bench fidelity -- [--vertices N] [--samples N] PATH...`
+//! `cargo bench -p keycomp-surface --bench fidelity -- [--vertices N] [--samples N] [--comb] PATH...`
 //! (PATHs, files or folders searched for meshes, relative to the workspace root; when `cargo
 //! bench` did not run it, it prints its usage and measures nothing)
 //!
@@ -17,6 +17,7 @@
 //! Prints one line per mesh (median, 99th percentile and largest distance each way, area of
 //! the surface over the input's) and, per folder, the median of each column over its meshes
 //! and the worst mesh of the 99th percentile surface → input. Deterministic (seeded samples).
+//! `--comb` measures a generated comb's gaps first ([`comb`]).
 
 use std::path::{Path, PathBuf};
 
@@ -130,9 +131,95 @@ fn print(row: &Row) {
     );
 }
 
+/// The generated comb: a base and six teeth (boxes of twelve triangles touching as a soup,
+/// teeth 0.2 wide and 1 long) with gaps of 0.5, 1.5, 2, 3 and 5 grid spacings between them at
+/// 12,000 vertices, and for each gap the faces of the canonical surface in the air across it
+/// (centroid inside the gap, along the teeth, farther than half a spacing from the comb): webs.
+fn comb() -> Result<(), Box<dyn std::error::Error>> {
+    let cube = |o: [f64; 3], e: [f64; 3]| {
+        let p =
+            |x: f64, y: f64, z: f64| Point3::new(o[0] + x * e[0], o[1] + y * e[1], o[2] + z * e[2]);
+        Mesh {
+            positions: vec![
+                p(0.0, 0.0, 0.0),
+                p(1.0, 0.0, 0.0),
+                p(1.0, 1.0, 0.0),
+                p(0.0, 1.0, 0.0),
+                p(0.0, 0.0, 1.0),
+                p(1.0, 0.0, 1.0),
+                p(1.0, 1.0, 1.0),
+                p(0.0, 1.0, 1.0),
+            ],
+            faces: vec![
+                [0, 2, 1],
+                [0, 3, 2],
+                [4, 5, 6],
+                [4, 6, 7],
+                [0, 1, 5],
+                [0, 5, 4],
+                [1, 2, 6],
+                [1, 6, 5],
+                [2, 3, 7],
+                [2, 7, 6],
+                [3, 0, 4],
+                [3, 4, 7],
+            ],
+        }
+    };
+    let gaps = [0.015, 0.045, 0.06, 0.09, 0.15];
+    let width = 0.2 * (gaps.len() + 1) as f64 + gaps.iter().sum::<f64>();
+    let mut soup = cube([0.0; 3], [width, 0.3, 0.2]);
+    let (mut x, mut slabs) = (0.0, Vec::new());
+    for i in 0..=gaps.len() {
+        let tooth = cube([x, 0.3, 0.0], [0.2, 1.0, 0.2]);
+        let n = soup.positions.len() as u32;
+        soup.positions.extend(tooth.positions);
+        soup.faces
+            .extend(tooth.faces.iter().map(|t| t.map(|v| v + n)));
+        x += 0.2;
+        if let Some(g) = gaps.get(i) {
+            slabs.push((x, x + g));
+            x += g;
+        }
+    }
+    let params = SurfaceParams {
+        vertices: 12_000,
+        ..SurfaceParams::default()
+    };
+    let s = canonical(Input::Mesh(&soup), &params)?;
+    let h = s.spacing;
+    println!("comb: spacing {h:.4}, offset {:.4}", s.offset);
+    println!("gap (spacings) | faces in the air across it");
+    for (a, b) in slabs {
+        let inside = s
+            .mesh
+            .faces
+            .iter()
+            .map(|t| {
+                Point3::from(
+                    t.iter()
+                        .map(|&v| s.mesh.positions[v as usize].coords)
+                        .sum::<keycomp_mesh::Vector3<f64>>()
+                        / 3.0,
+                )
+            })
+            .filter(|c| {
+                c.x > a + 0.5 * h
+                    && c.x < b - 0.5 * h
+                    && c.y > 0.3 + 2.0 * h
+                    && (0..soup.num_faces())
+                        .map(|f| (closest_on_triangle(c, &soup.triangle(f)) - c).norm())
+                        .fold(f64::INFINITY, f64::min)
+                        > 0.5 * h
+            })
+            .count();
+        println!("{:.2} | {inside}", (b - a) / h);
+    }
+    Ok(())
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let usage =
-        "cargo bench -p keycomp-surface --bench fidelity -- [--vertices N] [--samples N] PATH...";
+    let usage = "cargo bench -p keycomp-surface --bench fidelity -- [--vertices N] [--samples N] [--comb] PATH...";
     let Some(mut args) = bench_args(usage) else {
         return Ok(());
     };
@@ -157,6 +244,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     if let Some(v) = take("--samples")? {
         n = v;
+    }
+    if let Some(i) = args.iter().position(|a| a == "--comb") {
+        args.remove(i);
+        comb()?;
+        if args.is_empty() {
+            return Ok(());
+        }
     }
     if args.is_empty() {
         return Err(usage.into());

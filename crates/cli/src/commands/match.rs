@@ -16,7 +16,8 @@ use crate::{colors, output};
 pub const EXAMPLES: &str = "Examples:
   keycomp match cat0.off cat3.off
   keycomp match scan.ply model.off --json
-  keycomp match a.off b.off --ply-a a-matched.ply --ply-b b-matched.ply";
+  keycomp match a.off b.off --ply-a a-matched.ply --ply-b b-matched.ply
+  keycomp match bun000.ply bunny.ply --aligned bun000-on-bunny.ply";
 
 /// Arguments of `keycomp match`.
 #[derive(Debug, clap::Args)]
@@ -51,6 +52,11 @@ pub struct Args {
     /// Write B with each matched component in its pair's colour (PLY).
     #[arg(long, value_name = "OUT")]
     pub ply_b: Option<PathBuf>,
+    /// Write A moved onto B (the transform, `transform` in --json) to OUT: its mesh, or its
+    /// points for a point cloud, as .off, .ply or .glb by OUT's extension. Exit 1 when no
+    /// alignment is found (nothing written).
+    #[arg(long, value_name = "OUT")]
+    pub aligned: Option<PathBuf>,
 }
 
 /// Vertex colours of one side of a match: the detection's key-components dark grey, matched
@@ -89,6 +95,16 @@ fn pair_colors(
 }
 
 pub fn run(args: Args) -> Result<ExitCode> {
+    if let Some(out) = &args.aligned {
+        // before any work: a name whose format is unknown is refused at once
+        let ext = out.extension().and_then(|e| e.to_str()).unwrap_or_default();
+        if !["off", "ply", "glb"].contains(&ext.to_ascii_lowercase().as_str()) {
+            anyhow::bail!(
+                "{}: the aligned copy is written as .off, .ply or .glb (by its extension)",
+                out.display()
+            );
+        }
+    }
     let options = MatchOptions {
         detect: args.detect.explicit(),
         units: args.units.units()?.unwrap_or_default(),
@@ -103,6 +119,20 @@ pub fn run(args: Args) -> Result<ExitCode> {
         }
     }
     let match_ms = m.timings_ms.matching;
+    let mut aligned = true;
+    if let Some(out) = &args.aligned {
+        match &m.transform {
+            Some(t) => output::write_moved(&a.input, t, out)?,
+            None => {
+                eprintln!(
+                    "{}: no alignment of A on B was found; {} not written",
+                    args.a.display(),
+                    out.display()
+                );
+                aligned = false;
+            }
+        }
+    }
     let sides = [
         (
             &args.ply_a,
@@ -195,5 +225,9 @@ pub fn run(args: Args) -> Result<ExitCode> {
         )?;
         output::print_text(&s)?;
     }
-    Ok(ExitCode::SUCCESS)
+    Ok(if aligned {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    })
 }

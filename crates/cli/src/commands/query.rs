@@ -61,6 +61,11 @@ pub struct Args {
     /// for viewers of the matched parts (`keycomp serve` uses it).
     #[arg(long, value_name = "FILE")]
     pub analysis_out: Option<PathBuf>,
+    /// Also write the query moved onto each result (its `transform`) into this folder, as
+    /// binary PLY (`NN-<result's name>.ply`, NN the rank; the query's mesh, or its points):
+    /// results without an alignment get no file.
+    #[arg(long, value_name = "DIR")]
+    pub aligned_dir: Option<PathBuf>,
 }
 
 /// What `--analysis-out` writes: per scale hypothesis, the mesh analysed and its parts.
@@ -109,6 +114,9 @@ pub fn run(args: Args) -> Result<ExitCode> {
         // before any work: the report's folder must be creatable
         crate::output::check_output_folder(dir)?;
     }
+    if let Some(dir) = &args.aligned_dir {
+        keycomp::folders::check_output_folder(dir)?;
+    }
     let mut searcher = Searcher::open(&args.index, args.detect.explicit().as_ref())?;
     if let Some(note) = searcher.migration_note() {
         eprintln!("note: {note}");
@@ -127,6 +135,19 @@ pub fn run(args: Args) -> Result<ExitCode> {
         search: search_ms,
         ..
     } = answer.timings_ms;
+    if let Some(dir) = &args.aligned_dir {
+        keycomp::folders::create_output_folder(dir)?;
+        for hit in &answer.results {
+            if let Some(t) = &hit.transform {
+                let stem = std::path::Path::new(&hit.path)
+                    .file_stem()
+                    .map(|s| s.to_string_lossy().into_owned())
+                    .unwrap_or_else(|| "shape".into());
+                let out = dir.join(format!("{:02}-{stem}.ply", hit.rank));
+                output::write_moved(&q.input, t, &out)?;
+            }
+        }
+    }
     if let Some(file) = &args.analysis_out {
         let text = serde_json::to_vec(&AnalysisOut::of(&q))?;
         output::write_bytes(file, &text)?;
