@@ -16,7 +16,11 @@ away).
 Prints per scan and kind: the rotation error (degrees), the median displacement of the scan's
 points between the two transforms (% of the model's diagonal), the scale, the wall time; then,
 per model and kind, how many are within the tolerances (--max-degrees, --max-percent,
---max-scale) and the median time. Pure Python; no third-party module.
+--max-scale) and the median time. Pure Python; no third-party module. With --open3d PYTHON,
+each scan's points are also registered onto each model by `scripts/open3d_register.py` (Open3D's
+FPFH + RANSAC + point-to-plane ICP, told the units), run by that Python just before keycomp on
+the same pair: rows `open3d points`, with the peer's own registration time beside its
+process's wall time.
 
     python3 scripts/scan_pose.py --bin target/release/keycomp \\
         --scans ../shared/data/scans/bunny \\
@@ -119,6 +123,9 @@ def main():
     ap.add_argument("--max-degrees", type=float, default=0.5)
     ap.add_argument("--max-percent", type=float, default=0.2)
     ap.add_argument("--max-scale", type=float, default=0.005)
+    ap.add_argument("--open3d", metavar="PYTHON",
+                    help="also register each scan's points onto each model with "
+                         "scripts/open3d_register.py run by this Python (alternated with keycomp)")
     a = ap.parse_args()
 
     out = pathlib.Path(a.out)
@@ -156,12 +163,41 @@ def main():
         c.write_text("".join(f"{p[0]} {p[1]} {p[2]}\n" for p in ply_vertices(s)))
         clouds[s.name] = c
 
+    def measure(s, kind, name, tr, wall):
+        """One row: how far the transform `tr` puts scan `s` from where bun.conf puts it."""
+        gm, gt = conf[s.name]
+        if tr is None:
+            print(f"{name} {kind} {s.name}: no transform ({wall:.2f} s)", flush=True)
+            return {"scan": s.name, "kind": kind, "model": name, "found": True,
+                    "degrees": None, "percent": None, "scale": None, "s": wall}
+        deg = angle_between(tr["rotation"], gm)
+        pts = ply_vertices(s)[::20]
+        disp = statistics.median(
+            dist(apply(tr["rotation"], tr["translation"], p, tr["scale"]),
+                 apply(gm, gt, p)) for p in pts)
+        pct = 100 * disp / diag
+        print(f"{name} {kind} {s.name}: rotation {deg:.3f}°, displacement {pct:.3f} %, "
+              f"scale {tr['scale']:.4f} ({wall:.2f} s)", flush=True)
+        return {"scan": s.name, "kind": kind, "model": name, "found": True, "degrees": deg,
+                "percent": pct, "scale": tr["scale"], "s": wall, "rms": tr.get("rms"),
+                "registration_s": tr.get("seconds")}
+
     rows = []
     models = [None] if a.index else a.model
     for model in models:
         for kind in ("grid", "points"):
             for s in scans:
                 f = s if kind == "grid" else clouds[s.name]
+                if a.open3d and not a.index and kind == "points":
+                    peer = pathlib.Path(__file__).with_name("open3d_register.py")
+                    cmd = [a.open3d, str(peer), str(f), str(model)]
+                    t0 = time.perf_counter()
+                    r = subprocess.run(cmd, capture_output=True, text=True)
+                    wall = time.perf_counter() - t0
+                    if r.returncode != 0:
+                        raise SystemExit(f"{' '.join(cmd)}: {r.stderr}")
+                    rows.append(measure(s, "open3d " + kind, pathlib.Path(model).name,
+                                        json.loads(r.stdout), wall))
                 if a.index:
                     cmd = [a.bin, "query", str(f), "--index", a.index, "-k", "10", "--json"]
                 else:
@@ -180,28 +216,21 @@ def main():
                     name = pathlib.Path(hit["path"]).name if hit else "-"
                 else:
                     found, tr, name = True, o.get("transform"), pathlib.Path(model).name
-                gm, gt = conf[s.name]
-                if tr is None or not found:
-                    rows.append({"scan": s.name, "kind": kind, "model": name, "found": found,
+                if not found:
+                    rows.append({"scan": s.name, "kind": kind, "model": name, "found": False,
                                  "degrees": None, "percent": None, "scale": None, "s": wall})
-                    print(f"{name} {kind} {s.name}: {'no transform' if found else 'not first'}"
-                          f" ({wall:.2f} s)", flush=True)
+                    print(f"{name} {kind} {s.name}: not first ({wall:.2f} s)", flush=True)
                     continue
-                deg = angle_between(tr["rotation"], gm)
-                pts = ply_vertices(s)[::20]
-                disp = statistics.median(
-                    dist(apply(tr["rotation"], tr["translation"], p, tr["scale"]),
-                         apply(gm, gt, p)) for p in pts)
-                pct = 100 * disp / diag
-                rows.append({"scan": s.name, "kind": kind, "model": name, "found": True,
-                             "degrees": deg, "percent": pct, "scale": tr["scale"], "s": wall,
-                             "rms": tr.get("rms")})
-                print(f"{name} {kind} {s.name}: rotation {deg:.3f}°, displacement {pct:.3f} %, "
-                      f"scale {tr['scale']:.4f} ({wall:.2f} s)", flush=True)
+                rows.append(measure(s, kind, name, tr, wall))
     (out / "results.json").write_text(json.dumps(rows, indent=1) + "\n")
     print()
-    print("| model | input | within tolerances | rotation ° (median) | displacement % (median) | median s |")
-    print("|---|---|---:|---:|---:|---:|")
+    print("| model | input | within tolerances | rotation ° (median) | displacement % (median) "
+          "| median s | registration s (median) |")
+    print("|---|---|---:|---:|---:|---:|---:|")
+    def reg_median(sel):
+        reg = [r["registration_s"] for r in sel if r.get("registration_s") is not None]
+        return f"{statistics.median(reg):.2f}" if reg else "-"
+
     keys = sorted({(r["model"], r["kind"]) for r in rows}, key=lambda k: (k[0], k[1]))
     for model, kind in keys:
         sel = [r for r in rows if r["model"] == model and r["kind"] == kind]
@@ -212,7 +241,8 @@ def main():
         print(f"| {model} | {kind} | {len(ok)}/{len(sel)} | "
               f"{statistics.median(degs) if degs else float('nan'):.3f} | "
               f"{statistics.median(pcts) if pcts else float('nan'):.3f} | "
-              f"{statistics.median(r['s'] for r in sel):.2f} |")
+              f"{statistics.median(r['s'] for r in sel):.2f} | "
+              f"{reg_median(sel)} |")
 
 
 if __name__ == "__main__":

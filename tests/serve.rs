@@ -628,6 +628,45 @@ fn a_fragment_dropped_on_the_page_lists_its_source_first() {
     std::fs::write(shots.join("dropped-fragment.png"), &png_bytes).expect("writes");
     let (width, px) = pixels(&png_bytes);
     both_panes_coloured(width, &px);
+    // names are relative to the indexed folder, and the cards take the keyboard's focus
+    let name = page.eval("document.querySelector('#result-grid .card div:last-child').textContent");
+    assert!(
+        !name.as_str().expect("text").contains('/'),
+        "a result named {name}"
+    );
+    assert_eq!(
+        page.eval("document.querySelector('#result-grid .card').tabIndex"),
+        serde_json::json!(0)
+    );
+    // overlaid: the fragment moved onto its source by the result's transform, coloured by its
+    // distance to it; most of it lies on it
+    page.eval("document.getElementById('overlay').click(), true");
+    page.wait_for(
+        "document.querySelectorAll('#view3d .error').length > 0 || (document.querySelectorAll('#view3d .pane.wide[data-loaded=\"1\"]').length === 1 && document.getElementById('hover').textContent.includes('median distance'))",
+        60,
+    );
+    let errors = page.eval(
+        "Array.from(document.querySelectorAll('#view3d .error')).map(e => e.textContent).join('; ')",
+    );
+    assert_eq!(errors, serde_json::json!(""), "the overlay failed");
+    let tip = page.eval("document.getElementById('hover').textContent");
+    let tip = tip.as_str().expect("text");
+    let median: f64 = tip
+        .split("median distance ")
+        .nth(1)
+        .and_then(|t| t.split(' ').next())
+        .and_then(|x| x.parse().ok())
+        .expect("a median distance");
+    assert!(median < 0.5, "{tip}");
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    let shot = page.call(
+        "Page.captureScreenshot",
+        serde_json::json!({ "format": "png" }),
+    );
+    let png_bytes = base64::engine::general_purpose::STANDARD
+        .decode(shot["data"].as_str().expect("data"))
+        .expect("base64");
+    std::fs::write(shots.join("overlaid-fragment.png"), &png_bytes).expect("writes");
 }
 
 /// The `keycomp query` processes the server `pid` is running (Linux: from `/proc`).

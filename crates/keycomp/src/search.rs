@@ -57,6 +57,9 @@ pub struct QueryTimings {
     pub open: f64,
     /// Candidate search, matching and ranking.
     pub search: f64,
+    /// The results' transforms: alignments not found by the ranking, refinements.
+    #[serde(default)]
+    pub transforms: f64,
     /// All of it.
     pub total: f64,
 }
@@ -374,13 +377,15 @@ impl Searcher {
         let s = Instant::now();
         let ranked = self.rank(&q, k)?;
         let search = s.elapsed().as_secs_f64() * 1e3;
-        let timings = QueryTimings {
+        let p = Instant::now();
+        let mut result = self.result(name, &q, &ranked, k, QueryTimings::default())?;
+        result.timings_ms = QueryTimings {
             describe,
             open: self.open_ms,
             search,
+            transforms: p.elapsed().as_secs_f64() * 1e3,
             total: self.open_ms + t.elapsed().as_secs_f64() * 1e3,
         };
-        let result = self.result(name, &q, &ranked, k, timings)?;
         Ok((q, ranked, result))
     }
 }

@@ -133,6 +133,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
         describe: describe_ms,
         open: open_ms,
         search: search_ms,
+        transforms: transforms_ms,
         ..
     } = answer.timings_ms;
     if let Some(dir) = &args.aligned_dir {
@@ -218,7 +219,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
         }
         writeln!(
             s,
-            "time: describe query {describe_ms:.0} ms, open index {open_ms:.1} ms, search {search_ms:.1} ms"
+            "time: describe query {describe_ms:.0} ms, open index {open_ms:.1} ms, search {search_ms:.1} ms, transforms {transforms_ms:.1} ms"
         )?;
         if let Some(page) = &report {
             writeln!(s, "report: {}", page.display())?;

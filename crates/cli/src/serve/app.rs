@@ -111,9 +111,40 @@ pub(crate) async fn index_info(
             "shapes": snap.reader.len(),
             "generation": snap.reader.generation(),
             "profile": profile,
+            // the folder every indexed path lies under, which the page names shapes from
+            "root": common_folder(snap.rows()?.iter().map(|r| r.path.as_str())),
         })))
     })
     .await
+}
+
+/// The deepest folder holding every one of `paths` (with its trailing separator), empty when
+/// they share none.
+fn common_folder<'a>(paths: impl Iterator<Item = &'a str>) -> String {
+    let mut common: Option<&str> = None;
+    for p in paths {
+        let folder = match p.rfind('/') {
+            Some(i) => &p[..=i],
+            None => "",
+        };
+        common = Some(match common {
+            None => folder,
+            Some(c) => {
+                // the longest prefix of both that ends at a separator
+                let same = c
+                    .char_indices()
+                    .zip(folder.chars())
+                    .take_while(|((_, a), b)| a == b)
+                    .last()
+                    .map_or(0, |((i, a), _)| i + a.len_utf8());
+                match c[..same].rfind('/') {
+                    Some(i) => &c[..=i],
+                    None => "",
+                }
+            }
+        });
+    }
+    common.unwrap_or("").to_string()
 }
 
 #[derive(Debug, Deserialize)]
@@ -513,6 +544,17 @@ async fn run_query(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_common_folder_ends_at_a_separator() {
+        let f = |p: &[&str]| common_folder(p.iter().copied());
+        assert_eq!(f(&["/d/shapes/a.off", "/d/shapes/b.off"]), "/d/shapes/");
+        assert_eq!(f(&["/d/shapes/a.off", "/d/shapes/sub/b.off"]), "/d/shapes/");
+        assert_eq!(f(&["/d/shapes1/a.off", "/d/shapes2/b.off"]), "/d/");
+        assert_eq!(f(&["a.off", "/d/b.off"]), "");
+        assert_eq!(f(&["/d/é/a.off", "/d/é/b.off"]), "/d/é/");
+        assert_eq!(f(&[]), "");
+    }
 
     #[test]
     fn upload_names_keep_only_a_safe_base_name() {

@@ -1,0 +1,167 @@
+//! The pose oracle: pieces cut from real shapes and moved by known random similarities, matched
+//! back onto their shape; how far the transform keycomp gives is from the truth.
+//!
+//! `cargo bench -p keycomp --bench pose_oracle -- [--cases N] [--seed S] FOLDER...`
+//! (FOLDERs relative to the workspace root; when `cargo bench` did not run it, it prints its
+//! usage and measures nothing)
+//!
+//! Each case (seeded, `--cases` of them, default 100) draws a mesh of the folders, a kind (a
+//! geodesic ball, a plane cut or a one-sided scan view, `keycomp_fragment`) keeping 20–60 % of
+//! its area, a uniformly random rotation, a scale in [0.5, 2] (log-uniform) and a translation
+//! of up to twice the shape's size; the moved piece is matched onto the shape
+//! (`keycomp::matching::match_analysed`, the default profile). Measured per case: the rotation
+//! error (degrees), the scale error (%), the median displacement of the piece's vertices from
+//! where they were cut (% of the shape's bounding-box diagonal), and whether a transform was
+//! given at all. Prints one line per case and the median, 90th and 95th percentiles.
+
+use std::path::PathBuf;
+
+use keycomp::matching::{MatchParams, match_analysed};
+use keycomp::{Profile, Role, analyse_mesh, analyse_mesh_as};
+use keycomp_fragment::{PartialKind, cut_fragment};
+use keycomp_mesh::{Point3, Vector3, geometry, read_mesh};
+use keycomp_test_support::{bench_args, workspace_path};
+use nalgebra::{Matrix3, UnitQuaternion};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+fn quantile(v: &mut [f64], q: f64) -> f64 {
+    v.sort_by(f64::total_cmp);
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v[((v.len() - 1) as f64 * q).round() as usize]
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let usage = "cargo bench -p keycomp --bench pose_oracle -- [--cases N] [--seed S] FOLDER...";
+    let Some(mut args) = bench_args(usage) else {
+        return Ok(());
+    };
+    args.remove(0);
+    let mut take = |flag: &str| -> Result<Option<u64>, Box<dyn std::error::Error>> {
+        match args.iter().position(|a| a == flag) {
+            Some(i) => {
+                let v = args
+                    .get(i + 1)
+                    .ok_or(format!("{flag} needs a number"))?
+                    .parse()?;
+                args.drain(i..i + 2);
+                Ok(Some(v))
+            }
+            None => Ok(None),
+        }
+    };
+    let cases = take("--cases")?.unwrap_or(100) as usize;
+    let seed = take("--seed")?.unwrap_or(0);
+    let mut files: Vec<PathBuf> = Vec::new();
+    for folder in &args {
+        let mut f: Vec<PathBuf> = std::fs::read_dir(workspace_path(folder))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| keycomp_mesh::Format::from_path(p).is_ok())
+            .collect();
+        f.sort();
+        files.extend(f);
+    }
+    if files.is_empty() {
+        return Err(usage.into());
+    }
+    let profile = Profile::current(&keycomp::options::DetectOptions::default().retrieval_params());
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let (mut rot, mut scale, mut disp) = (Vec::new(), Vec::new(), Vec::new());
+    let mut missing = 0;
+    println!("case | shape | kind | kept | rotation ° | scale % | displacement % of diagonal");
+    for case in 0..cases {
+        let file = &files[rng.random_range(0..files.len())];
+        let kind =
+            [PartialKind::Ball, PartialKind::Plane, PartialKind::Scan][rng.random_range(0..3)];
+        let fraction = rng.random_range(0.2..0.6);
+        let truth_r = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+        ))
+        .to_rotation_matrix();
+        let truth_s: f64 = 2f64.powf(rng.random_range(-1.0..1.0));
+        let mesh = read_mesh(file)?.mesh;
+        let diag = geometry::bounding_box(&mesh).diagonal();
+        let shift = Vector3::new(
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+        ) * 2.0
+            * diag;
+        let mut frng = ChaCha8Rng::seed_from_u64(seed.wrapping_mul(1000) + case as u64);
+        let Ok(piece) = cut_fragment(&mesh, kind, fraction, &mut frng) else {
+            continue;
+        };
+        let mut moved = piece.mesh.clone();
+        for p in &mut moved.positions {
+            *p = Point3::from(truth_r * p.coords * truth_s + shift);
+        }
+        let q = analyse_mesh_as(moved.clone(), &profile, Role::Query)?;
+        let t = analyse_mesh(mesh.clone(), &profile)?;
+        let params = MatchParams {
+            verify_weight: q.verify_weight(None),
+            ..MatchParams::default()
+        };
+        let m = match_analysed(&q, &t, ("piece", "shape"), &params);
+        let name = file
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let Some(tr) = m.transform else {
+            missing += 1;
+            println!(
+                "{case} | {name} | {kind:?} | {:.2} | - | - | -",
+                piece.fraction
+            );
+            continue;
+        };
+        let r = Matrix3::from_fn(|i, j| tr.rotation[i][j]);
+        let d = r * truth_r.matrix();
+        let angle = ((d.trace() - 1.0) / 2.0)
+            .clamp(-1.0, 1.0)
+            .acos()
+            .to_degrees();
+        let s_err = 100.0 * (tr.scale * truth_s - 1.0).abs();
+        let mut offs: Vec<f64> = moved
+            .positions
+            .iter()
+            .zip(&piece.mesh.positions)
+            .map(|(p, o)| {
+                let x = tr.apply([p.x, p.y, p.z]);
+                (Point3::new(x[0], x[1], x[2]) - o).norm()
+            })
+            .collect();
+        let med = 100.0 * quantile(&mut offs, 0.5) / diag;
+        println!(
+            "{case} | {name} | {kind:?} | {:.2} | {angle:.3} | {s_err:.3} | {med:.3}",
+            piece.fraction
+        );
+        rot.push(angle);
+        scale.push(s_err);
+        disp.push(med);
+    }
+    println!();
+    println!(
+        "{} cases, {} without a transform",
+        rot.len() + missing,
+        missing
+    );
+    println!("measure | median | 90th percentile | 95th percentile");
+    for (name, v) in [
+        ("rotation °", &mut rot),
+        ("scale %", &mut scale),
+        ("displacement % of diagonal", &mut disp),
+    ] {
+        println!(
+            "{name} | {:.3} | {:.3} | {:.3}",
+            quantile(v, 0.5),
+            quantile(v, 0.9),
+            quantile(v, 0.95)
+        );
+    }
+    Ok(())
+}
