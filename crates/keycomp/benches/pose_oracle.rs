@@ -11,16 +11,24 @@
 //! of up to twice the shape's size; the moved piece is matched onto the shape
 //! (`keycomp::matching::match_analysed`, the default profile). Measured per case: the rotation
 //! error (degrees), the scale error (%), the median displacement of the piece's vertices from
-//! where they were cut (% of the shape's bounding-box diagonal), and whether a transform was
-//! given at all. Prints one line per case and the median, 90th and 95th percentiles.
+//! where they were cut (% of the shape's bounding-box diagonal), whether a transform was given
+//! at all, and where the transform puts the piece: the median distance of its moved vertices to
+//! the shape (to the nearest of 100,000 points drawn by area on it, % of the diagonal). A pose
+//! is *right* within 2° and 1 % displacement; a wrong one that still lays the piece on the
+//! shape (median distance ≤ 0.5 %) put it on another place the piece fits, a symmetric
+//! counterpart (a car's other side, a chair's other leg); else it is *off* the shape. Prints one
+//! line per case, the three counts, and the median, 90th and 95th percentiles.
 
 use std::path::PathBuf;
 
 use keycomp::matching::{MatchParams, match_analysed};
 use keycomp::{Profile, Role, analyse_mesh, analyse_mesh_as};
 use keycomp_fragment::{PartialKind, cut_fragment};
+use keycomp_mesh::sample::AreaSampler;
 use keycomp_mesh::{Point3, Vector3, geometry, read_mesh};
 use keycomp_test_support::{bench_args, workspace_path};
+use kiddo::SquaredEuclidean;
+use kiddo::immutable::float::kdtree::ImmutableKdTree;
 use nalgebra::{Matrix3, UnitQuaternion};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -31,6 +39,37 @@ fn quantile(v: &mut [f64], q: f64) -> f64 {
         return f64::NAN;
     }
     v[((v.len() - 1) as f64 * q).round() as usize]
+}
+
+/// Points drawn by area on the shape, the distance to the nearest of which stands for the
+/// distance to the shape.
+const SHAPE_SAMPLES: usize = 100_000;
+/// Median distance (% of the diagonal) under which a moved piece lies on its shape.
+const ON_SHAPE: f64 = 0.5;
+
+/// The median distance from `points` to the nearest of `SHAPE_SAMPLES` points drawn by area on
+/// `mesh` (seeded by `seed`).
+fn median_distance_to(mesh: &keycomp_mesh::Mesh, points: &[Point3<f64>], seed: u64) -> f64 {
+    let Some(sampler) = AreaSampler::new(mesh) else {
+        return f64::INFINITY;
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let coords: Vec<[f64; 3]> = (0..SHAPE_SAMPLES)
+        .map(|_| {
+            let p = sampler.sample(&mut rng).0;
+            [p.x, p.y, p.z]
+        })
+        .collect();
+    let tree: ImmutableKdTree<f64, u32, 3, 32> = ImmutableKdTree::new_from_slice(&coords);
+    let mut d: Vec<f64> = points
+        .iter()
+        .map(|p| {
+            tree.nearest_one::<SquaredEuclidean>(&[p.x, p.y, p.z])
+                .distance
+                .sqrt()
+        })
+        .collect();
+    quantile(&mut d, 0.5)
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -70,7 +109,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let (mut rot, mut scale, mut disp) = (Vec::new(), Vec::new(), Vec::new());
     let mut missing = 0;
-    println!("case | shape | kind | kept | rotation ° | scale % | displacement % of diagonal");
+    let (mut right, mut elsewhere, mut off) = (0, 0, 0);
+    println!(
+        "case | shape | kind | kept | rotation ° | scale % | displacement % of diagonal | on the shape: median distance % | pose"
+    );
     for case in 0..cases {
         let file = &files[rng.random_range(0..files.len())];
         let kind =
@@ -136,8 +178,24 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             })
             .collect();
         let med = 100.0 * quantile(&mut offs, 0.5) / diag;
+        let placed: Vec<Point3<f64>> = moved
+            .positions
+            .iter()
+            .map(|p| Point3::from(tr.apply([p.x, p.y, p.z])))
+            .collect();
+        let on = 100.0 * median_distance_to(&mesh, &placed, case as u64) / diag;
+        let pose = if angle <= 2.0 && med <= 1.0 {
+            right += 1;
+            "right"
+        } else if on <= ON_SHAPE {
+            elsewhere += 1;
+            "on the shape elsewhere"
+        } else {
+            off += 1;
+            "off the shape"
+        };
         println!(
-            "{case} | {name} | {kind:?} | {:.2} | {angle:.3} | {s_err:.3} | {med:.3}",
+            "{case} | {name} | {kind:?} | {:.2} | {angle:.3} | {s_err:.3} | {med:.3} | {on:.3} | {pose}",
             piece.fraction
         );
         rot.push(angle);
@@ -149,6 +207,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "{} cases, {} without a transform",
         rot.len() + missing,
         missing
+    );
+    println!(
+        "right pose {right}, on the shape elsewhere {elsewhere}, off the shape {off}, none {missing}"
     );
     println!("measure | median | 90th percentile | 95th percentile");
     for (name, v) in [
