@@ -37,7 +37,7 @@ fn detect_json_has_the_documented_shape_and_is_deterministic() {
     let p = path.to_str().expect("utf8");
     // the paper's preset on the mesh as read (its 1 % of a canonical surface's 10,000
     // vertices is too few keypoints for N = 30)
-    let o = keycomp(&[
+    let args = [
         "detect",
         p,
         "--json",
@@ -47,7 +47,8 @@ fn detect_json_has_the_documented_shape_and_is_deterministic() {
         "kc1",
         "--surface",
         "as-read",
-    ]);
+    ];
+    let o = keycomp(&args);
     assert!(o.status.success(), "stderr: {}", stderr(&o));
     let v: Value = serde_json::from_slice(&o.stdout).expect("valid JSON");
     for key in [
@@ -94,17 +95,7 @@ fn detect_json_has_the_documented_shape_and_is_deterministic() {
         assert!(!ids("faces").is_empty());
     }
     // same input and seed: byte-identical JSON apart from the timings
-    let again = keycomp(&[
-        "detect",
-        p,
-        "--json",
-        "--seed",
-        "7",
-        "--preset",
-        "kc1",
-        "--surface",
-        "as-read",
-    ]);
+    let again = keycomp(&args);
     let w: Value = serde_json::from_slice(&again.stdout).expect("valid JSON");
     assert_eq!(
         serde_json::to_string(&without_timings(v)).expect("json"),

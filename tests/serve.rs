@@ -550,6 +550,24 @@ impl Devtools {
         r["result"]["value"].clone()
     }
 
+    /// The page as PNG bytes, after half a second for the 3D panes to draw, also kept as
+    /// `target/tmp/serve-screenshots/NAME`.
+    fn screenshot(&mut self, name: &str) -> Vec<u8> {
+        use base64::Engine as _;
+        std::thread::sleep(std::time::Duration::from_millis(500));
+        let shot = self.call(
+            "Page.captureScreenshot",
+            serde_json::json!({ "format": "png" }),
+        );
+        let png_bytes = base64::engine::general_purpose::STANDARD
+            .decode(shot["data"].as_str().expect("data"))
+            .expect("base64");
+        let shots = Path::new(env!("CARGO_TARGET_TMPDIR")).join("serve-screenshots");
+        std::fs::create_dir_all(&shots).expect("mkdir");
+        std::fs::write(shots.join(name), &png_bytes).expect("writes");
+        png_bytes
+    }
+
     /// Waits up to `seconds` for `js` to be true.
     fn wait_for(&mut self, js: &str, seconds: u64) {
         let until = std::time::Instant::now() + std::time::Duration::from_secs(seconds);
@@ -565,11 +583,10 @@ impl Devtools {
 
 /// A fragment dropped on the page (as a user drags a file from the desktop): the results list
 /// its source first, and the first result opened draws the query and the source side by side
-/// with matched parts coloured. The screenshot is kept in `target/tmp/serve-screenshots/`.
-/// Skipped without Chromium.
+/// with matched parts coloured, then overlaid (the fragment moved onto its source). The
+/// screenshots are kept in `target/tmp/serve-screenshots/`. Skipped without Chromium.
 #[test]
 fn a_fragment_dropped_on_the_page_lists_its_source_first() {
-    use base64::Engine as _;
     let Some(browser) = chromium() else {
         eprintln!("skipping the browser check: no chromium found (apt-get install chromium)");
         return;
@@ -615,17 +632,7 @@ fn a_fragment_dropped_on_the_page_lists_its_source_first() {
         "document.querySelectorAll('#view3d .pane[data-loaded=\"1\"]').length === 2",
         60,
     );
-    std::thread::sleep(std::time::Duration::from_millis(500));
-    let shot = page.call(
-        "Page.captureScreenshot",
-        serde_json::json!({ "format": "png" }),
-    );
-    let png_bytes = base64::engine::general_purpose::STANDARD
-        .decode(shot["data"].as_str().expect("data"))
-        .expect("base64");
-    let shots = Path::new(env!("CARGO_TARGET_TMPDIR")).join("serve-screenshots");
-    std::fs::create_dir_all(&shots).expect("mkdir");
-    std::fs::write(shots.join("dropped-fragment.png"), &png_bytes).expect("writes");
+    let png_bytes = page.screenshot("dropped-fragment.png");
     let (width, px) = pixels(&png_bytes);
     both_panes_coloured(width, &px);
     // names are relative to the indexed folder, and the cards take the keyboard's focus
@@ -658,15 +665,7 @@ fn a_fragment_dropped_on_the_page_lists_its_source_first() {
         .and_then(|x| x.parse().ok())
         .expect("a median distance");
     assert!(median < 0.5, "{tip}");
-    std::thread::sleep(std::time::Duration::from_millis(500));
-    let shot = page.call(
-        "Page.captureScreenshot",
-        serde_json::json!({ "format": "png" }),
-    );
-    let png_bytes = base64::engine::general_purpose::STANDARD
-        .decode(shot["data"].as_str().expect("data"))
-        .expect("base64");
-    std::fs::write(shots.join("overlaid-fragment.png"), &png_bytes).expect("writes");
+    page.screenshot("overlaid-fragment.png");
 }
 
 /// The `keycomp query` processes the server `pid` is running (Linux: from `/proc`).

@@ -119,9 +119,10 @@ async function showResults(answer) {
 // The palette as byte triples, to tell which pair a hovered vertex belongs to.
 const PALETTE = Array.from({ length: 64 }, (_, k) => distinct(k).slice(4, -1).split(",").map(Number));
 
-// One 3D pane in `box`: the GLB at `url`, orbit controls, and `hover(k)` called with the
-// palette index of the coloured part under the pointer (-1 for none).
-function pane(box, url, label, hover) {
+// A lit scene in `box` under `label`, its camera with orbit controls and its renderer;
+// `frame(object)` points the camera at `object` from 1.4 of its diagonal away (and returns the
+// diagonal), `fail(e)` shows an error in the box, `handle` is what `view` renders and disposes.
+function stage(box, label) {
   const scene = new THREE.Scene();
   scene.background = new THREE.Color(0xf4f4f4);
   scene.add(new THREE.HemisphereLight(0xffffff, 0x666666, 0.9));
@@ -134,6 +135,34 @@ function pane(box, url, label, hover) {
   renderer.setSize(width, height);
   box.append(el("div", { className: "label", textContent: label }), renderer.domElement);
   const controls = new THREE.OrbitControls(camera, renderer.domElement);
+  const frame = (object) => {
+    const bounds = new THREE.Box3().setFromObject(object);
+    const centre = bounds.getCenter(new THREE.Vector3());
+    const diag = bounds.getSize(new THREE.Vector3()).length() || 1;
+    camera.position.copy(centre).add(new THREE.Vector3(0.4, 0.3, 1).normalize().multiplyScalar(diag * 1.4));
+    camera.near = diag / 200; camera.far = diag * 50; camera.updateProjectionMatrix();
+    controls.target.copy(centre);
+    controls.update();
+    return diag;
+  };
+  const fail = (e) => box.append(el("div", { className: "error", textContent: String(e.message || e) }));
+  const render = () => {
+    const w = Math.max(1, box.clientWidth), h = Math.max(1, box.clientHeight);
+    const size = renderer.getSize(new THREE.Vector2());
+    if (size.x !== w || size.y !== h) {
+      renderer.setSize(w, h);
+      camera.aspect = w / h;
+      camera.updateProjectionMatrix();
+    }
+    renderer.render(scene, camera);
+  };
+  return { scene, camera, renderer, frame, fail, handle: { render, dispose: () => renderer.dispose() } };
+}
+
+// One 3D pane in `box`: the GLB at `url`, orbit controls, and `hover(k)` called with the
+// palette index of the coloured part under the pointer (-1 for none).
+function pane(box, url, label, hover) {
+  const { scene, camera, renderer, frame, fail, handle } = stage(box, label);
   let mesh = null;
   new THREE.GLTFLoader().load(url, (gltf) => {
     gltf.scene.traverse((o) => {
@@ -143,16 +172,10 @@ function pane(box, url, label, hover) {
         mesh = o;
       }
     });
-    const bounds = new THREE.Box3().setFromObject(gltf.scene);
-    const centre = bounds.getCenter(new THREE.Vector3());
-    const radius = bounds.getSize(new THREE.Vector3()).length() / 2 || 1;
-    camera.position.copy(centre).add(new THREE.Vector3(0.4, 0.3, 1).normalize().multiplyScalar(radius * 2.8));
-    camera.near = radius / 100; camera.far = radius * 100; camera.updateProjectionMatrix();
-    controls.target.copy(centre);
-    controls.update();
+    frame(gltf.scene);
     scene.add(gltf.scene);
     box.dataset.loaded = "1";
-  }, undefined, (e) => box.append(el("div", { className: "error", textContent: String(e.message || e) })));
+  }, undefined, fail);
   const ray = new THREE.Raycaster();
   renderer.domElement.onmousemove = (ev) => {
     if (!mesh) return;
@@ -167,17 +190,7 @@ function pane(box, url, label, hover) {
     hover(PALETTE.findIndex((p) => p[0] === c[0] && p[1] === c[1] && p[2] === c[2]));
   };
   renderer.domElement.onmouseleave = () => hover(-1);
-  const render = () => {
-    const w = Math.max(1, box.clientWidth), h = Math.max(1, box.clientHeight);
-    const size = renderer.getSize(new THREE.Vector2());
-    if (size.x !== w || size.y !== h) {
-      renderer.setSize(w, h);
-      camera.aspect = w / h;
-      camera.updateProjectionMatrix();
-    }
-    renderer.render(scene, camera);
-  };
-  return { render, dispose: () => renderer.dispose() };
+  return handle;
 }
 
 // Colour of a distance d relative to `far`: blue on the surface, through green and yellow,
@@ -219,21 +232,9 @@ function nearestDistances(query, target, cell, far) {
 // query at `queryUrl` moved by `matrix` (row-major 4×4, the result's transform), each of its
 // vertices coloured by its distance to the shape (0 to 2 % of the shape's diagonal).
 function overlayPane(box, shapeUrl, queryUrl, matrix, label, done) {
-  const scene = new THREE.Scene();
-  scene.background = new THREE.Color(0xf4f4f4);
-  scene.add(new THREE.HemisphereLight(0xffffff, 0x666666, 0.9));
-  const light = new THREE.DirectionalLight(0xffffff, 0.6);
-  light.position.set(1, 2, 3);
-  scene.add(light);
-  const width = Math.max(1, box.clientWidth), height = Math.max(1, box.clientHeight);
-  const camera = new THREE.PerspectiveCamera(40, width / height, 0.001, 1000);
-  const renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
-  renderer.setSize(width, height);
-  box.append(el("div", { className: "label", textContent: label }), renderer.domElement);
-  const controls = new THREE.OrbitControls(camera, renderer.domElement);
+  const { scene, frame, fail, handle } = stage(box, label);
   const loader = new THREE.GLTFLoader();
   const meshOf = (gltf) => { let m = null; gltf.scene.traverse((o) => { if (o.isMesh) m = o; }); return m; };
-  const fail = (e) => box.append(el("div", { className: "error", textContent: String(e.message || e) }));
   // an exception in a loader's callback would otherwise vanish: it is shown as the pane's error
   const guarded = (f) => (arg) => { try { f(arg); } catch (e) { fail(e); } };
   loader.load(shapeUrl, guarded((shapeGltf) => {
@@ -242,13 +243,7 @@ function overlayPane(box, shapeUrl, queryUrl, matrix, label, done) {
     shape.geometry.computeVertexNormals();
     shape.material = new THREE.MeshLambertMaterial({ color: 0xbbbbbb, side: THREE.DoubleSide, transparent: true, opacity: 0.55 });
     scene.add(shapeGltf.scene);
-    const bounds = new THREE.Box3().setFromObject(shapeGltf.scene);
-    const centre = bounds.getCenter(new THREE.Vector3());
-    const diag = bounds.getSize(new THREE.Vector3()).length() || 1;
-    camera.position.copy(centre).add(new THREE.Vector3(0.4, 0.3, 1).normalize().multiplyScalar(diag * 1.4));
-    camera.near = diag / 200; camera.far = diag * 50; camera.updateProjectionMatrix();
-    controls.target.copy(centre);
-    controls.update();
+    const diag = frame(shapeGltf.scene);
     loader.load(queryUrl, guarded((queryGltf) => {
       const query = meshOf(queryGltf);
       if (!query) { fail("the query has no mesh"); return; }
@@ -269,17 +264,7 @@ function overlayPane(box, shapeUrl, queryUrl, matrix, label, done) {
       done(sorted[Math.floor(sorted.length / 2)] / diag);
     }), undefined, fail);
   }), undefined, fail);
-  const render = () => {
-    const w = Math.max(1, box.clientWidth), h = Math.max(1, box.clientHeight);
-    const size = renderer.getSize(new THREE.Vector2());
-    if (size.x !== w || size.y !== h) {
-      renderer.setSize(w, h);
-      camera.aspect = w / h;
-      camera.updateProjectionMatrix();
-    }
-    renderer.render(scene, camera);
-  };
-  return { render, dispose: () => renderer.dispose() };
+  return handle;
 }
 
 // The 3D view of an indexed shape; with a hit, the query `queryName` (when the server kept it,

@@ -86,9 +86,28 @@ pub fn write_colours_on_input(
     Ok(())
 }
 
+/// The format [`write_moved`] writes `out` in, by its extension: "off", "ply" or "glb"; an
+/// error naming `out` for any other (checked before any work).
+pub fn moved_format(out: &Path) -> Result<&'static str> {
+    let ext = out
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .unwrap_or_default();
+    ["off", "ply", "glb"]
+        .into_iter()
+        .find(|f| *f == ext)
+        .ok_or_else(|| {
+            anyhow::anyhow!(
+                "{}: the aligned copy is written as .off, .ply or .glb (by its extension)",
+                out.display()
+            )
+        })
+}
+
 /// Writes `input` (a file's mesh or points) moved by `t` to `out`, in the format its extension
-/// names: `.off` (points as an OFF without faces), `.ply` (binary, grey) or `.glb`. Atomic: a
-/// failure leaves nothing half-written.
+/// names ([`moved_format`]): `.off` (points as an OFF without faces), `.ply` (binary, grey) or
+/// `.glb`. Atomic: a failure leaves nothing half-written.
 pub fn write_moved(
     input: &keycomp_mesh::Geometry,
     t: &keycomp::transform::Transform,
@@ -109,12 +128,7 @@ pub fn write_moved(
             .collect(),
         faces,
     };
-    let ext = out
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase)
-        .unwrap_or_default();
-    match ext.as_str() {
+    match moved_format(out)? {
         "off" => keycomp_mesh::write_off(&moved, out)?,
         "ply" => keycomp_mesh::write_ply_colored(
             &moved,
@@ -122,12 +136,8 @@ pub fn write_moved(
             out,
         )?,
         "glb" if !moved.faces.is_empty() => keycomp_mesh::write_glb(&moved, out)?,
-        "glb" => anyhow::bail!(
-            "{}: a point cloud cannot be written as GLB; use .off or .ply",
-            out.display()
-        ),
         _ => anyhow::bail!(
-            "{}: the aligned copy is written as .off, .ply or .glb (by its extension)",
+            "{}: a point cloud cannot be written as GLB; use .off or .ply",
             out.display()
         ),
     }

@@ -26,20 +26,12 @@ use keycomp::{Profile, Role, analyse_mesh, analyse_mesh_as};
 use keycomp_fragment::{PartialKind, cut_fragment};
 use keycomp_mesh::sample::AreaSampler;
 use keycomp_mesh::{Point3, Vector3, geometry, read_mesh};
-use keycomp_test_support::{bench_args, workspace_path};
+use keycomp_test_support::{bench_args, median, quantile, take_number, workspace_path};
 use kiddo::SquaredEuclidean;
 use kiddo::immutable::float::kdtree::ImmutableKdTree;
 use nalgebra::{Matrix3, UnitQuaternion};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-
-fn quantile(v: &mut [f64], q: f64) -> f64 {
-    v.sort_by(f64::total_cmp);
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v[((v.len() - 1) as f64 * q).round() as usize]
-}
 
 /// Points drawn by area on the shape, the distance to the nearest of which stands for the
 /// distance to the shape.
@@ -61,15 +53,16 @@ fn median_distance_to(mesh: &keycomp_mesh::Mesh, points: &[Point3<f64>], seed: u
         })
         .collect();
     let tree: ImmutableKdTree<f64, u32, 3, 32> = ImmutableKdTree::new_from_slice(&coords);
-    let mut d: Vec<f64> = points
-        .iter()
-        .map(|p| {
-            tree.nearest_one::<SquaredEuclidean>(&[p.x, p.y, p.z])
-                .distance
-                .sqrt()
-        })
-        .collect();
-    quantile(&mut d, 0.5)
+    median(
+        points
+            .iter()
+            .map(|p| {
+                tree.nearest_one::<SquaredEuclidean>(&[p.x, p.y, p.z])
+                    .distance
+                    .sqrt()
+            })
+            .collect(),
+    )
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -78,21 +71,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         return Ok(());
     };
     args.remove(0);
-    let mut take = |flag: &str| -> Result<Option<u64>, Box<dyn std::error::Error>> {
-        match args.iter().position(|a| a == flag) {
-            Some(i) => {
-                let v = args
-                    .get(i + 1)
-                    .ok_or(format!("{flag} needs a number"))?
-                    .parse()?;
-                args.drain(i..i + 2);
-                Ok(Some(v))
-            }
-            None => Ok(None),
-        }
-    };
-    let cases = take("--cases")?.unwrap_or(100) as usize;
-    let seed = take("--seed")?.unwrap_or(0);
+    let cases: usize = take_number(&mut args, "--cases")?.unwrap_or(100);
+    let seed: u64 = take_number(&mut args, "--seed")?.unwrap_or(0);
     let mut files: Vec<PathBuf> = Vec::new();
     for folder in &args {
         let mut f: Vec<PathBuf> = std::fs::read_dir(workspace_path(folder))?
@@ -168,7 +148,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .acos()
             .to_degrees();
         let s_err = 100.0 * (tr.scale * truth_s - 1.0).abs();
-        let mut offs: Vec<f64> = moved
+        let offs: Vec<f64> = moved
             .positions
             .iter()
             .zip(&piece.mesh.positions)
@@ -177,7 +157,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 (Point3::new(x[0], x[1], x[2]) - o).norm()
             })
             .collect();
-        let med = 100.0 * quantile(&mut offs, 0.5) / diag;
+        let med = 100.0 * median(offs) / diag;
         let placed: Vec<Point3<f64>> = moved
             .positions
             .iter()
@@ -217,6 +197,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ("scale %", &mut scale),
         ("displacement % of diagonal", &mut disp),
     ] {
+        v.sort_by(f64::total_cmp);
         println!(
             "{name} | {:.3} | {:.3} | {:.3}",
             quantile(v, 0.5),

@@ -334,13 +334,20 @@ fn analyse_in(
     role: Role,
 ) -> Result<Analysed, Error> {
     let mixed = profile.surface.is_none() && matches!(geometry, Geometry::Points(_));
-    let input = geometry.clone();
     let mut a = if profile.in_source_units() {
-        Measured::new(geometry, profile, path)?.analyse(role)?
+        Measured {
+            geometry,
+            profile,
+            path,
+            t: Instant::now(),
+        }
+        .analyse(role)?
     } else {
-        analyse_first_version(geometry, profile, path, role)?
+        let input = geometry.clone();
+        let mut a = analyse_first_version(geometry, profile, path, role)?;
+        a.input = input;
+        a
     };
-    a.input = input;
     if mixed {
         a.warnings.push(CLOUD_ON_AS_READ.to_string());
     }
@@ -416,7 +423,7 @@ fn analyse_first_version(
     })
 }
 
-/// The input of an analysis before it is set (by [`analyse_in`]).
+/// The input of a version 1 analysis before [`analyse_in`] sets it.
 fn no_input() -> Geometry {
     Geometry::Points(keycomp_mesh::PointCloud {
         positions: Vec::new(),
@@ -433,20 +440,7 @@ struct Measured<'a> {
     t: Instant,
 }
 
-impl<'a> Measured<'a> {
-    fn new(
-        geometry: Geometry,
-        profile: &'a Profile,
-        path: Option<&'a Path>,
-    ) -> Result<Measured<'a>, Error> {
-        Ok(Measured {
-            geometry,
-            profile,
-            path,
-            t: Instant::now(),
-        })
-    }
-
+impl Measured<'_> {
     fn path(&self) -> Option<PathBuf> {
         self.path.map(Path::to_path_buf)
     }
@@ -545,7 +539,7 @@ impl<'a> Measured<'a> {
         Ok(Analysed {
             mesh: first.mesh,
             warnings: Vec::new(),
-            input: no_input(),
+            input: self.geometry,
             detection: first.detection,
             description: first.description,
             share: first.share,

@@ -291,21 +291,18 @@ impl Searcher {
             return Ok(None);
         };
         let descriptors: Vec<_> = rec.components.iter().map(|c| c.descriptor).collect();
+        // no centres (a record of index format 1 or 2): nothing to align with
         let centres: Vec<[f32; 3]> = rec
             .components
             .iter()
-            .map(|c| c.centre.unwrap_or([f32::NAN; 3]))
-            .collect();
-        let centres: &[[f32; 3]] = if centres.iter().any(|c| c[0].is_nan()) {
-            &[]
-        } else {
-            &centres
-        };
+            .map(|c| c.centre)
+            .collect::<Option<_>>()
+            .unwrap_or_default();
         let target = ShapeView {
             descriptors: &descriptors,
             layout: &rec.layout,
             areas: &[],
-            centres,
+            centres: &centres,
             sample: &rec.sample,
         };
         let frame = crate::transform::frame_factor(self.profile.describe.units, rec.surface_area);

@@ -19,7 +19,7 @@ use keycomp_mesh::{Mesh, Point3};
 use keycomp_retrieval::Alignment;
 use serde::{Deserialize, Serialize};
 
-/// Most points of the query's analysed mesh the refinement moves (every k-th vertex).
+/// Most of the query's input points the refinement moves (every k-th, [`Transform::refined`]).
 pub const REFINE_POINTS: usize = 4000;
 
 /// The similarity transform taking a query's file coordinates onto a shape's (see the module

@@ -122,6 +122,44 @@ pub fn bicone(n: usize) -> Mesh {
     Mesh { positions, faces }
 }
 
+/// A closed axis-aligned box from corner `origin` with side lengths `extent`: 8 vertices, 12
+/// outward-oriented triangles.
+pub fn cuboid(origin: [f64; 3], extent: [f64; 3]) -> Mesh {
+    let p = |x: f64, y: f64, z: f64| {
+        Point3::new(
+            origin[0] + x * extent[0],
+            origin[1] + y * extent[1],
+            origin[2] + z * extent[2],
+        )
+    };
+    Mesh {
+        positions: vec![
+            p(0.0, 0.0, 0.0),
+            p(1.0, 0.0, 0.0),
+            p(1.0, 1.0, 0.0),
+            p(0.0, 1.0, 0.0),
+            p(0.0, 0.0, 1.0),
+            p(1.0, 0.0, 1.0),
+            p(1.0, 1.0, 1.0),
+            p(0.0, 1.0, 1.0),
+        ],
+        faces: vec![
+            [0, 2, 1],
+            [0, 3, 2],
+            [4, 5, 6],
+            [4, 6, 7],
+            [0, 1, 5],
+            [0, 5, 4],
+            [1, 2, 6],
+            [1, 6, 5],
+            [2, 3, 7],
+            [2, 7, 6],
+            [3, 0, 4],
+            [3, 4, 7],
+        ],
+    }
+}
+
 /// A flat `nx × ny` grid of square cells of side `cell` in the z = 0 plane (laid out as
 /// [`height_field`]); each cell split into two triangles. It has an open boundary.
 pub fn grid(nx: usize, ny: usize, cell: f64) -> Mesh {

@@ -25,7 +25,7 @@ use keycomp_mesh::sample::AreaSampler;
 use keycomp_mesh::{Mesh, Point3, geometry, read_mesh};
 use keycomp_surface::trim::closest_on_triangle;
 use keycomp_surface::{Input, SurfaceParams, canonical};
-use keycomp_test_support::{bench_args, median, workspace_path};
+use keycomp_test_support::{bench_args, median, quantile, take_number, workspace_path};
 use kiddo::SquaredEuclidean;
 use kiddo::immutable::float::kdtree::ImmutableKdTree;
 use rand::SeedableRng;
@@ -66,13 +66,6 @@ fn distances(from: &[(Point3<f64>, usize)], to: &Mesh, dense: &[(Point3<f64>, us
         .collect();
     d.sort_by(f64::total_cmp);
     d
-}
-
-fn quantile(sorted: &[f64], q: f64) -> f64 {
-    if sorted.is_empty() {
-        return f64::NAN;
-    }
-    sorted[((sorted.len() - 1) as f64 * q).round() as usize]
 }
 
 /// One mesh's row: median, p99 and max each way (relative to the diagonal), area ratio.
@@ -136,36 +129,7 @@ fn print(row: &Row) {
 /// 12,000 vertices, and for each gap the faces of the canonical surface in the air across it
 /// (centroid inside the gap, along the teeth, farther than half a spacing from the comb): webs.
 fn comb() -> Result<(), Box<dyn std::error::Error>> {
-    let cube = |o: [f64; 3], e: [f64; 3]| {
-        let p =
-            |x: f64, y: f64, z: f64| Point3::new(o[0] + x * e[0], o[1] + y * e[1], o[2] + z * e[2]);
-        Mesh {
-            positions: vec![
-                p(0.0, 0.0, 0.0),
-                p(1.0, 0.0, 0.0),
-                p(1.0, 1.0, 0.0),
-                p(0.0, 1.0, 0.0),
-                p(0.0, 0.0, 1.0),
-                p(1.0, 0.0, 1.0),
-                p(1.0, 1.0, 1.0),
-                p(0.0, 1.0, 1.0),
-            ],
-            faces: vec![
-                [0, 2, 1],
-                [0, 3, 2],
-                [4, 5, 6],
-                [4, 6, 7],
-                [0, 1, 5],
-                [0, 5, 4],
-                [1, 2, 6],
-                [1, 6, 5],
-                [2, 3, 7],
-                [2, 7, 6],
-                [3, 0, 4],
-                [3, 4, 7],
-            ],
-        }
-    };
+    let cube = keycomp_mesh::synth::cuboid;
     let gaps = [0.015, 0.045, 0.06, 0.09, 0.15];
     let width = 0.2 * (gaps.len() + 1) as f64 + gaps.iter().sum::<f64>();
     let mut soup = cube([0.0; 3], [width, 0.3, 0.2]);
@@ -226,23 +190,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     args.remove(0);
     let mut params = SurfaceParams::default();
     let mut n = 20_000;
-    let mut take = |flag: &str| -> Result<Option<usize>, Box<dyn std::error::Error>> {
-        match args.iter().position(|a| a == flag) {
-            Some(i) => {
-                let v = args
-                    .get(i + 1)
-                    .ok_or(format!("{flag} needs a number"))?
-                    .parse()?;
-                args.drain(i..i + 2);
-                Ok(Some(v))
-            }
-            None => Ok(None),
-        }
-    };
-    if let Some(v) = take("--vertices")? {
+    if let Some(v) = take_number(&mut args, "--vertices")? {
         params.vertices = v;
     }
-    if let Some(v) = take("--samples")? {
+    if let Some(v) = take_number(&mut args, "--samples")? {
         n = v;
     }
     if let Some(i) = args.iter().position(|a| a == "--comb") {

@@ -28,6 +28,32 @@ pub fn bench_args(usage: &str) -> Option<Vec<String>> {
     args
 }
 
+/// The number after `flag` in `args` (`--cases 100`), both removed from `args`; `None` when
+/// the flag is absent, an error naming the flag when its value is missing or not a `T`.
+///
+/// ```
+/// use keycomp_test_support::take_number;
+///
+/// let mut args = vec!["--cases".to_string(), "12".to_string(), "dir".to_string()];
+/// assert_eq!(take_number::<usize>(&mut args, "--cases"), Ok(Some(12)));
+/// assert_eq!(args, ["dir"]);
+/// assert_eq!(take_number::<usize>(&mut args, "--seed"), Ok(None));
+/// ```
+pub fn take_number<T: std::str::FromStr>(
+    args: &mut Vec<String>,
+    flag: &str,
+) -> Result<Option<T>, String> {
+    let Some(i) = args.iter().position(|a| a == flag) else {
+        return Ok(None);
+    };
+    let value = args
+        .get(i + 1)
+        .and_then(|v| v.parse().ok())
+        .ok_or(format!("{flag} needs a number"))?;
+    args.drain(i..i + 2);
+    Ok(Some(value))
+}
+
 /// `args` without the `--bench` flags, or `None` when there is none.
 fn without_bench_flag(args: impl IntoIterator<Item = String>) -> Option<Vec<String>> {
     let args: Vec<String> = args.into_iter().collect();
@@ -41,6 +67,20 @@ mod tests {
 
     fn strings(args: &[&str]) -> Vec<String> {
         args.iter().map(|a| a.to_string()).collect()
+    }
+
+    #[test]
+    fn a_flag_s_number_is_taken_out_and_a_bad_one_named() {
+        let mut args = strings(&["a", "--n", "7", "b"]);
+        assert_eq!(take_number::<u64>(&mut args, "--n"), Ok(Some(7)));
+        assert_eq!(args, strings(&["a", "b"]));
+        let mut args = strings(&["--n", "x"]);
+        assert_eq!(
+            take_number::<u64>(&mut args, "--n"),
+            Err("--n needs a number".to_string())
+        );
+        let mut args = strings(&["--n"]);
+        assert!(take_number::<u64>(&mut args, "--n").is_err());
     }
 
     #[test]

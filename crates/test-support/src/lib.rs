@@ -20,8 +20,8 @@ mod dijkstra;
 mod sphere;
 mod stats;
 
-pub use bench::bench_args;
+pub use bench::{bench_args, take_number};
 pub use data::{SHARED_DATA, shared_data, workspace_path, workspace_root};
 pub use dijkstra::edge_path_distances;
 pub use sphere::great_circle_matrix;
-pub use stats::median;
+pub use stats::{median, quantile};

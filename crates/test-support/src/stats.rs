@@ -17,9 +17,35 @@ pub fn median(mut values: Vec<f64>) -> f64 {
     values.get(values.len() / 2).copied().unwrap_or(f64::NAN)
 }
 
+/// The `q` quantile (0 to 1) of `sorted` (ascending): the value at the nearest rank
+/// `round((n − 1)·q)`, a value that was measured; NaN for an empty list.
+///
+/// ```
+/// use keycomp_test_support::quantile;
+///
+/// assert_eq!(quantile(&[1.0, 2.0, 3.0, 4.0, 5.0], 0.5), 3.0);
+/// assert_eq!(quantile(&[1.0, 2.0, 3.0, 4.0, 5.0], 0.9), 5.0);
+/// ```
+pub fn quantile(sorted: &[f64], q: f64) -> f64 {
+    if sorted.is_empty() {
+        return f64::NAN;
+    }
+    sorted[((sorted.len() - 1) as f64 * q.clamp(0.0, 1.0)).round() as usize]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn quantiles_are_measured_values_at_the_nearest_rank() {
+        let v = [10.0, 20.0, 30.0, 40.0];
+        assert_eq!(quantile(&v, 0.0), 10.0);
+        assert_eq!(quantile(&v, 1.0), 40.0);
+        // rank round(3 × 0.5) = 2
+        assert_eq!(quantile(&v, 0.5), 30.0);
+        assert!(quantile(&[], 0.5).is_nan());
+    }
 
     #[test]
     fn odd_and_even_counts_and_the_empty_list() {

@@ -97,13 +97,7 @@ fn pair_colors(
 pub fn run(args: Args) -> Result<ExitCode> {
     if let Some(out) = &args.aligned {
         // before any work: a name whose format is unknown is refused at once
-        let ext = out.extension().and_then(|e| e.to_str()).unwrap_or_default();
-        if !["off", "ply", "glb"].contains(&ext.to_ascii_lowercase().as_str()) {
-            anyhow::bail!(
-                "{}: the aligned copy is written as .off, .ply or .glb (by its extension)",
-                out.display()
-            );
-        }
+        output::moved_format(out)?;
     }
     let options = MatchOptions {
         detect: args.detect.explicit(),

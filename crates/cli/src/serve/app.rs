@@ -121,30 +121,23 @@ pub(crate) async fn index_info(
 /// The deepest folder holding every one of `paths` (with its trailing separator), empty when
 /// they share none.
 fn common_folder<'a>(paths: impl Iterator<Item = &'a str>) -> String {
-    let mut common: Option<&str> = None;
+    let mut common: Option<Vec<&str>> = None;
     for p in paths {
-        let folder = match p.rfind('/') {
-            Some(i) => &p[..=i],
-            None => "",
-        };
+        let mut folders: Vec<&str> = p.split('/').collect();
+        folders.pop(); // the file's name
         common = Some(match common {
-            None => folder,
-            Some(c) => {
-                // the longest prefix of both that ends at a separator
-                let same = c
-                    .char_indices()
-                    .zip(folder.chars())
-                    .take_while(|((_, a), b)| a == b)
-                    .last()
-                    .map_or(0, |((i, a), _)| i + a.len_utf8());
-                match c[..same].rfind('/') {
-                    Some(i) => &c[..=i],
-                    None => "",
-                }
+            None => folders,
+            Some(mut c) => {
+                let same = c.iter().zip(&folders).take_while(|(a, b)| a == b).count();
+                c.truncate(same);
+                c
             }
         });
     }
-    common.unwrap_or("").to_string()
+    match common {
+        Some(c) if !c.is_empty() => c.join("/") + "/",
+        _ => String::new(),
+    }
 }
 
 #[derive(Debug, Deserialize)]
