@@ -494,32 +494,7 @@ fn lighting_and_outline_change_the_picture() {
     .expect("plain");
     assert_eq!(edge(&no_outline), 0);
     // A cube's creases are outlined with flat shading.
-    let cube = mesh(
-        &[
-            [-1.0, -1.0, -1.0],
-            [1.0, -1.0, -1.0],
-            [1.0, 1.0, -1.0],
-            [-1.0, 1.0, -1.0],
-            [-1.0, -1.0, 1.0],
-            [1.0, -1.0, 1.0],
-            [1.0, 1.0, 1.0],
-            [-1.0, 1.0, 1.0],
-        ],
-        &[
-            [0, 2, 1],
-            [0, 3, 2],
-            [4, 5, 6],
-            [4, 6, 7],
-            [0, 1, 5],
-            [0, 5, 4],
-            [2, 3, 7],
-            [2, 7, 6],
-            [1, 2, 6],
-            [1, 6, 5],
-            [0, 4, 7],
-            [0, 7, 3],
-        ],
-    );
+    let cube = synth::cuboid([-1.0; 3], [2.0; 3]);
     let params = RenderParams {
         size: 128,
         shading: Shading::Flat,
