@@ -521,16 +521,23 @@ impl Measured<'_> {
             keycomp_describe::Units::ScaleFree
         );
         let mut hypotheses = if role == Role::Query && scale_free && self.may_be_open() {
-            // sampled as a fragment first: if that surface has no boundary, the query is whole
-            let first = self.surface(FRAGMENT_SHARES[0])?;
+            // sampled as a fragment under every hypothesis side by side; if the first surface
+            // has no boundary, the query is whole
+            let mut surfaces: Vec<Result<Mesh, Error>> = FRAGMENT_SHARES
+                .par_iter()
+                .map(|&share| self.surface(share))
+                .collect();
+            let first = surfaces.remove(0)?;
             if Topology::new(&first).boundary_vertices().is_empty() {
                 vec![self.hypothesis(self.surface(1.0)?, 1.0)?]
             } else {
-                let mut all = vec![self.hypothesis(first, FRAGMENT_SHARES[0])?];
-                for &share in &FRAGMENT_SHARES[1..] {
-                    all.push(self.hypothesis(self.surface(share)?, share)?);
-                }
-                all
+                std::iter::once(Ok(first))
+                    .chain(surfaces)
+                    .collect::<Result<Vec<Mesh>, Error>>()?
+                    .into_par_iter()
+                    .zip(FRAGMENT_SHARES)
+                    .map(|(mesh, share)| self.hypothesis(mesh, share))
+                    .collect::<Result<Vec<_>, Error>>()?
             }
         } else {
             vec![self.hypothesis(self.surface(1.0)?, 1.0)?]
@@ -728,18 +735,23 @@ impl Analysed {
 
     /// Where this shape, as the query under scale hypothesis `h`, sits on `target` (of frame
     /// factor `target_frame`): the alignment of the match `m` when its verification found one,
-    /// else one found now by verification's search (`keycomp_retrieval::align_views`);
-    /// `None` when no alignment is found.
-    pub fn transform_onto(
+    /// else one found now by verification's search (`keycomp_retrieval::align_views`), then
+    /// the alternatives that fit nearly as well (`keycomp_retrieval::ShapeMatch::alternatives`,
+    /// for [`crate::transform::Transform::refined_best`]); empty when no alignment is found.
+    pub fn transforms_onto(
         &self,
         h: usize,
         m: &keycomp_retrieval::ShapeMatch,
         target: keycomp_retrieval::ShapeView,
         target_frame: f64,
         params: &keycomp_retrieval::MatchParams,
-    ) -> Option<crate::transform::Transform> {
-        let (alignment, fitness) = match (&m.alignment, m.verified) {
-            (Some(a), Some(f)) => (*a, f),
+    ) -> Vec<crate::transform::Transform> {
+        let (alignments, fitness) = match (&m.alignment, m.verified) {
+            (Some(a), Some(f)) => {
+                let mut all = vec![*a];
+                all.extend(m.alternatives.iter().copied());
+                (all, f)
+            }
             _ => {
                 let (descriptors, centres) = self.full_view_of(h);
                 let query = keycomp_retrieval::ShapeView {
@@ -749,15 +761,23 @@ impl Analysed {
                     centres: &centres,
                     sample: &self.hypothesis(h).sample,
                 };
-                keycomp_retrieval::align_views(query, target, &self.match_params(params))?
+                match keycomp_retrieval::align_views(query, target, &self.match_params(params)) {
+                    Some(found) => found,
+                    None => return Vec::new(),
+                }
             }
         };
-        crate::transform::Transform::from_alignment(
-            &alignment,
-            self.frame_factor(h),
-            target_frame,
-            fitness,
-        )
+        alignments
+            .iter()
+            .filter_map(|a| {
+                crate::transform::Transform::from_alignment(
+                    a,
+                    self.frame_factor(h),
+                    target_frame,
+                    fitness,
+                )
+            })
+            .collect()
     }
 
     /// Vertices on the mesh's boundary: 0 for a closed surface (see

@@ -145,9 +145,12 @@ pub fn match_analysed(
         centres: &centres,
         sample: &b.description.sample,
     };
-    let transform = a
-        .transform_onto(hypothesis, &m, target, b.frame_factor(0), params)
-        .map(|t| t.refined(a.input.positions(), b.surface_mesh(), b.file_units()));
+    let transform = crate::transform::Transform::refined_best(
+        &a.transforms_onto(hypothesis, &m, target, b.frame_factor(0), params),
+        a.input.positions(),
+        b.surface_mesh(),
+        b.file_units(),
+    );
     let matching = t.elapsed().as_secs_f64() * 1e3;
     MatchResult {
         a: names.0.to_string(),

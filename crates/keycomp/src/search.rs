@@ -306,7 +306,7 @@ impl Searcher {
             sample: &rec.sample,
         };
         let frame = crate::transform::frame_factor(self.profile.describe.units, rec.surface_area);
-        let transform = query.transform_onto(
+        let transforms = query.transforms_onto(
             r.hypothesis,
             &r.result,
             target,
@@ -314,7 +314,7 @@ impl Searcher {
             &MatchParams::default(),
         );
         if !refine {
-            return Ok(transform);
+            return Ok(transforms.first().copied());
         }
         // refined on the shape's file as it was indexed (unchanged since: same content hash)
         let unchanged = keycomp_index::ContentHash::of_file(&rec.canonical_path)
@@ -322,16 +322,19 @@ impl Searcher {
         let file = unchanged
             .then(|| keycomp_mesh::read_mesh(&rec.canonical_path).ok())
             .flatten();
-        Ok(match (transform, file) {
-            (Some(t), Some(file)) => {
-                Some(t.refined(query.input.positions(), &file.mesh, query.file_units()))
-            }
-            (t, _) => t,
+        Ok(match file {
+            Some(file) => crate::transform::Transform::refined_best(
+                &transforms,
+                query.input.positions(),
+                &file.mesh,
+                query.file_units(),
+            ),
+            None => transforms.first().copied(),
         })
     }
 
     /// Sets how many of the best results get their transform refined on their file's surface
-    /// ([`crate::transform::Transform::refined`]; default [`REFINED_RESULTS`]): each reads
+    /// ([`crate::transform::Transform::refined_best`]; default [`REFINED_RESULTS`]): each reads
     /// that file again, so a large `k` with all of them refined is slower.
     pub fn set_refined_results(&mut self, n: usize) {
         self.refined_results = n;

@@ -19,8 +19,13 @@ use keycomp_mesh::{Mesh, Point3};
 use keycomp_retrieval::Alignment;
 use serde::{Deserialize, Serialize};
 
-/// Most of the query's input points the refinement moves (every k-th, [`Transform::refined`]).
+/// Most of the query's input points the refinement moves (every k-th,
+/// [`Transform::refined_best`]).
 pub const REFINE_POINTS: usize = 4000;
+/// Of those, every this-many-th is moved when several candidates are compared.
+pub const QUICK_STEP: usize = 4;
+/// Rounds of refinement of each candidate when several are compared.
+pub const QUICK_ROUNDS: usize = 10;
 
 /// The similarity transform taking a query's file coordinates onto a shape's (see the module
 /// documentation for the conventions).
@@ -39,7 +44,7 @@ pub struct Transform {
     /// (verification's fitness).
     pub verified: f64,
     /// Root mean square of the point-to-plane distances from the query's surface to the
-    /// shape's once refined ([`Transform::refined`]), in the shape's file units; `None` when the
+    /// shape's once refined ([`Transform::refined_best`]), in the shape's file units; `None` when the
     /// transform is verification's alone (not refined).
     pub rms: Option<f64>,
 }
@@ -78,11 +83,21 @@ impl Transform {
         })
     }
 
-    /// This transform refined on the surfaces (`keycomp_retrieval::refine`: trimmed
-    /// point-to-plane ICP): `query`, points of the query's surface, onto `target`, the shape's
-    /// mesh, both in their files' coordinates; the scale kept when `fixed_scale` (both in the same
-    /// units). The transform as it is when the refinement fails or the meshes are too small.
-    pub fn refined(&self, query: &[Point3<f64>], target: &Mesh, fixed_scale: bool) -> Transform {
+    /// The best of `candidates` (verification's alignment first, then its alternatives,
+    /// [`crate::Analysed::transforms_onto`]), each refined on the surfaces
+    /// (`keycomp_retrieval::refine`: trimmed point-to-plane ICP): `query`, points of the
+    /// query's surface, onto `target`, the shape's mesh, both in their files' coordinates; the
+    /// scale kept when `fixed_scale` (both in the same units). With several candidates each is
+    /// refined [`QUICK_ROUNDS`] rounds on every [`QUICK_STEP`]-th point and the one that puts
+    /// most of them on the shape (`keycomp_retrieval::refine::Refined::on`; the earlier of
+    /// equals) is refined fully. The first candidate as it is when refinement fails or the
+    /// meshes are too small; `None` without candidates.
+    pub fn refined_best(
+        candidates: &[Transform],
+        query: &[Point3<f64>],
+        target: &Mesh,
+        fixed_scale: bool,
+    ) -> Option<Transform> {
         let step = query.len().div_ceil(REFINE_POINTS).max(1);
         let points: Vec<[f64; 3]> = query
             .iter()
@@ -98,17 +113,41 @@ impl Transform {
             .filter(|(_, n)| n.norm_squared() > 0.0)
             .map(|(p, n)| ([p.x, p.y, p.z], [n.x, n.y, n.z]))
             .unzip();
-        let start = Alignment {
-            rotation: self.rotation,
-            translation: self.translation,
-            scale: self.scale,
+        let Some(surface) = keycomp_retrieval::refine::Target::new(&targets, &normals) else {
+            return candidates.first().copied();
         };
-        match keycomp_retrieval::refine::refine(&points, &targets, &normals, start, fixed_scale) {
-            Some(r) => Transform {
+        let start = |c: &Transform| Alignment {
+            rotation: c.rotation,
+            translation: c.translation,
+            scale: c.scale,
+        };
+        // several candidates: a first look at each (a few rounds on a quarter of the points),
+        // the one that puts most of them on the shape refined fully
+        let mut chosen = candidates.first().map(|c| (start(c), c.verified))?;
+        if candidates.len() > 1 {
+            let few: Vec<[f64; 3]> = points.iter().step_by(QUICK_STEP).copied().collect();
+            let mut best = f64::NEG_INFINITY;
+            for c in candidates {
+                if let Some(r) = surface.refine(&few, start(c), fixed_scale, QUICK_ROUNDS)
+                    && r.on > best
+                {
+                    best = r.on;
+                    chosen = (r.alignment, c.verified);
+                }
+            }
+        }
+        let (from, verified) = chosen;
+        match surface.refine(
+            &points,
+            from,
+            fixed_scale,
+            keycomp_retrieval::refine::ROUNDS,
+        ) {
+            Some(r) => Some(Transform {
                 rms: Some(r.rms),
-                ..Transform::from_alignment(&r.alignment, 1.0, 1.0, self.verified).unwrap_or(*self)
-            },
-            None => *self,
+                ..Transform::from_alignment(&r.alignment, 1.0, 1.0, verified)?
+            }),
+            None => candidates.first().copied(),
         }
     }
 
@@ -164,6 +203,45 @@ mod tests {
         assert!((t.angle_degrees() - 0.3f64.to_degrees()).abs() < 1e-9);
         assert!(Transform::from_alignment(&a, 0.0, ct, 0.9).is_none());
         assert!(Transform::from_alignment(&a, cq, f64::NAN, 0.9).is_none());
+    }
+
+    /// Of two starts, a pose turned half a turn (whose trimmed pairs still fit a bumpy
+    /// surface's middle) and one a little off the truth, the refinement keeps the one that puts
+    /// the points on the surface, and refines it to the truth; the order does not matter.
+    #[test]
+    fn the_best_of_several_starts_is_the_one_on_the_surface() {
+        use keycomp_mesh::synth;
+        let surface = synth::height_field(60, 60, 0.05, |x, y| {
+            0.3 * (2.0 * x).sin() * (1.5 * y).cos() + 0.2 * x * x
+        });
+        // the query: the surface's vertices in a third of it, in their own file's frame (a
+        // shift), so that the truth is a translation
+        let shift = [0.4, -0.2, 0.1];
+        let query: Vec<Point3<f64>> = surface
+            .positions
+            .iter()
+            .filter(|p| p.x < -0.5)
+            .map(|p| Point3::new(p.x - shift[0], p.y - shift[1], p.z - shift[2]))
+            .collect();
+        let at = |angle: f64, off: f64| {
+            let (c, s) = (angle.cos(), angle.sin());
+            let a = Alignment {
+                rotation: [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]],
+                translation: [shift[0] + off, shift[1], shift[2]],
+                scale: 1.0,
+            };
+            Transform::from_alignment(&a, 1.0, 1.0, 0.9).expect("valid")
+        };
+        let (turned, near) = (at(std::f64::consts::PI, 0.0), at(0.02, 0.03));
+        for candidates in [[turned, near], [near, turned]] {
+            let t =
+                Transform::refined_best(&candidates, &query, &surface, true).expect("a transform");
+            assert!(t.angle_degrees() < 0.1, "{t:?}");
+            for i in 0..3 {
+                assert!((t.translation[i] - shift[i]).abs() < 1e-3, "{t:?}");
+            }
+        }
+        assert!(Transform::refined_best(&[], &query, &surface, true).is_none());
     }
 
     /// The oracle: a piece cut from a shape and moved by a known similarity, matched back,

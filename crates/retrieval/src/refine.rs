@@ -12,7 +12,13 @@
 //! scale change δ about the moved points' centroid c and a translation τ:
 //! `((x − c)×n)·ω + (n·(x − c))·δ + n·τ = −(x − q)·n` per pair (x moved query point, q its
 //! target point, n its normal), then composes the update. It stops when the update is below
-//! [`CONVERGED`] or after [`ROUNDS`] rounds. In file units the scale stays fixed (δ = 0).
+//! [`CONVERGED`] or after [`ROUNDS`] rounds. In file units the scale stays fixed (δ = 0); else
+//! it stays within [`SCALE_DRIFT`] of the start's (a round that would leave it keeps it).
+//!
+//! Trimmed pairs fit a wrong pose too (a blobby shape's back fits it turned over, to the 70 %
+//! kept); what tells poses apart is the share of *all* the query's points that end on the
+//! surface ([`Refined::on`]: within half a target spacing of a tangent plane), which
+//! [`Target::refine`] reports so that a caller can refine several starts and keep the best.
 //!
 //! Cost: O(rounds · m log n) for m query points and n target points.
 
@@ -23,11 +29,21 @@ use nalgebra::{Matrix3, Rotation3, SMatrix, SVector, Vector3};
 use crate::verify::Alignment;
 
 /// Most rounds.
-pub const ROUNDS: usize = 60;
+pub const ROUNDS: usize = 30;
 /// Share of the pairs kept each round, the nearest.
 pub const TRIM: f64 = 0.7;
 /// An update moving the points by less than this share of their spread ends the rounds.
-pub const CONVERGED: f64 = 1e-6;
+pub const CONVERGED: f64 = 1e-5;
+/// A moved query point is on the target when its distance to the tangent plane of its nearest
+/// target point is at most this many target spacings (the median distance between
+/// neighbouring target points) ...
+pub const ON_PLANE: f64 = 0.5;
+/// ... and that point is at most this many spacings away (not beyond the target's border).
+pub const ON_REACH: f64 = 1.5;
+/// Largest factor by which refinement may change the start's scale.
+pub const SCALE_DRIFT: f64 = 1.25;
+/// Target points probed for the target's spacing.
+const SPACING_PROBES: usize = 1000;
 
 /// A refined alignment.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -38,15 +54,202 @@ pub struct Refined {
     pub rms: f64,
     /// Rounds run.
     pub rounds: usize,
+    /// The share of the query's points on the target once moved ([`ON_PLANE`], [`ON_REACH`]):
+    /// what tells a pose from another that fits the trimmed pairs as well.
+    pub on: f64,
 }
 
 fn v(p: [f64; 3]) -> Vector3<f64> {
     Vector3::new(p[0], p[1], p[2])
 }
 
+/// The surface queries are refined onto: its points with their unit normals, a KD-tree over
+/// them and their spacing.
+pub struct Target<'a> {
+    points: &'a [[f64; 3]],
+    normals: &'a [[f64; 3]],
+    tree: ImmutableKdTree<f64, u32, 3, 32>,
+    spacing: f64,
+}
+
+impl<'a> Target<'a> {
+    /// The surface sampled by `points` with their unit `normals`; `None` for fewer than 7
+    /// points or as many normals.
+    pub fn new(points: &'a [[f64; 3]], normals: &'a [[f64; 3]]) -> Option<Self> {
+        if points.len() < 7 || normals.len() != points.len() {
+            return None;
+        }
+        let tree: ImmutableKdTree<f64, u32, 3, 32> = ImmutableKdTree::new_from_slice(points);
+        let two = std::num::NonZero::new(2).expect("2 is not 0");
+        let step = (points.len() / SPACING_PROBES).max(1);
+        let mut d: Vec<f64> = points
+            .iter()
+            .step_by(step)
+            .filter_map(|x| {
+                let nb = tree.nearest_n::<SquaredEuclidean>(x, two);
+                nb.get(1).map(|nb| nb.distance.sqrt())
+            })
+            .collect();
+        d.sort_by(f64::total_cmp);
+        let spacing = d.get(d.len() / 2).copied().unwrap_or(0.0);
+        Some(Target {
+            points,
+            normals,
+            tree,
+            spacing,
+        })
+    }
+
+    /// The nearest target point to `x`, its index and the squared distance.
+    fn nearest(&self, x: &Vector3<f64>) -> (f64, usize) {
+        let nb = self.tree.nearest_one::<SquaredEuclidean>(&[x.x, x.y, x.z]);
+        (nb.distance, nb.item as usize)
+    }
+
+    /// `start` refined so that `query` (points in the query's frame) lies on the surface, at
+    /// most `rounds` rounds (see the module documentation); `fixed_scale` keeps the scale.
+    /// `None` without at least 7 query points, or when the start is not finite.
+    pub fn refine(
+        &self,
+        query: &[[f64; 3]],
+        start: Alignment,
+        fixed_scale: bool,
+        rounds: usize,
+    ) -> Option<Refined> {
+        if query.len() < 7 {
+            return None;
+        }
+        let (target, normals) = (self.points, self.normals);
+        let mut r = Matrix3::from_fn(|i, j| start.rotation[i][j]);
+        let mut s = start.scale;
+        let mut t = v(start.translation);
+        if !(s.is_finite()
+            && s > 0.0
+            && r.iter().all(|x| x.is_finite())
+            && t.iter().all(|x| x.is_finite()))
+        {
+            return None;
+        }
+        let p: Vec<Vector3<f64>> = query.iter().map(|&x| v(x)).collect();
+        let keep = ((query.len() as f64 * TRIM).ceil() as usize).clamp(7, query.len());
+        let mut pairs: Vec<(f64, usize, usize)> = Vec::with_capacity(query.len());
+        let mut rms = f64::NAN;
+        let mut run = 0;
+        for round in 0..rounds {
+            run = round + 1;
+            let moved: Vec<Vector3<f64>> = p.iter().map(|x| s * (r * x) + t).collect();
+            pairs.clear();
+            for (i, x) in moved.iter().enumerate() {
+                let (d2, j) = self.nearest(x);
+                pairs.push((d2, i, j));
+            }
+            pairs.select_nth_unstable_by(keep - 1, |a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            let kept = &pairs[..keep];
+            let c = kept.iter().map(|&(_, i, _)| moved[i]).sum::<Vector3<f64>>() / keep as f64;
+            let spread = (kept
+                .iter()
+                .map(|&(_, i, _)| (moved[i] - c).norm_squared())
+                .sum::<f64>()
+                / keep as f64)
+                .sqrt();
+            let dof = if fixed_scale { 6 } else { 7 };
+            let mut ata = SMatrix::<f64, 7, 7>::zeros();
+            let mut atb = SVector::<f64, 7>::zeros();
+            let mut sq = 0.0;
+            for &(_, i, j) in kept {
+                let n = v(normals[j]);
+                let x = moved[i];
+                let y = x - c;
+                let res = (x - v(target[j])).dot(&n);
+                sq += res * res;
+                let w = y.cross(&n);
+                let row = SVector::<f64, 7>::from([w.x, w.y, w.z, n.x, n.y, n.z, n.dot(&y)]);
+                ata += row * row.transpose();
+                atb -= row * res;
+            }
+            rms = (sq / keep as f64).sqrt();
+            // a light ridge keeps directions the points do not constrain (a flat patch's slide)
+            let ridge = 1e-9 * ata.trace().max(f64::MIN_POSITIVE);
+            for k in 0..dof {
+                ata[(k, k)] += ridge;
+            }
+            let rigid = || -> Option<SVector<f64, 7>> {
+                let a6 = ata.fixed_view::<6, 6>(0, 0).into_owned();
+                let b6 = atb.fixed_rows::<6>(0).into_owned();
+                let x6 = a6.cholesky()?.solve(&b6);
+                Some(SVector::<f64, 7>::from([
+                    x6[0], x6[1], x6[2], x6[3], x6[4], x6[5], 0.0,
+                ]))
+            };
+            let x = if fixed_scale {
+                rigid()?
+            } else {
+                // a scale leaving SCALE_DRIFT of the start's: this round keeps the scale (the
+                // trimmed pairs of a shrinking query fit ever better, down to a point)
+                let x = ata.cholesky()?.solve(&atb);
+                let next = s * (1.0 + x[6]);
+                if next > start.scale * SCALE_DRIFT || next < start.scale / SCALE_DRIFT {
+                    rigid()?
+                } else {
+                    x
+                }
+            };
+            let (omega, tau, delta) = (
+                Vector3::new(x[0], x[1], x[2]),
+                Vector3::new(x[3], x[4], x[5]),
+                x[6],
+            );
+            let dr = *Rotation3::new(omega).matrix();
+            let k = 1.0 + delta;
+            // x' = k·dR·(x − c) + c + τ, x = s·R·p + t
+            r = dr * r;
+            s *= k;
+            t = k * (dr * (t - c)) + c + tau;
+            let step = omega.norm() * spread + delta.abs() * spread + tau.norm();
+            if !(s.is_finite() && s > 0.0) {
+                return None;
+            }
+            if step <= CONVERGED * spread.max(f64::MIN_POSITIVE) {
+                break;
+            }
+        }
+        // re-orthonormalise the composed rotation
+        let svd = r.svd(true, true);
+        let (u, vt) = (svd.u?, svd.v_t?);
+        let mut r = u * vt;
+        if r.determinant() < 0.0 {
+            let mut d = Matrix3::identity();
+            d[(2, 2)] = -1.0;
+            r = u * d * vt;
+        }
+        // the share of the query on the surface
+        let on = p
+            .iter()
+            .filter(|x| {
+                let y = s * (r * *x) + t;
+                let (d2, j) = self.nearest(&y);
+                d2 <= (ON_REACH * self.spacing).powi(2)
+                    && (y - v(target[j])).dot(&v(normals[j])).abs() <= ON_PLANE * self.spacing
+            })
+            .count() as f64
+            / p.len() as f64;
+        Some(Refined {
+            alignment: Alignment {
+                rotation: std::array::from_fn(|i| std::array::from_fn(|j| r[(i, j)])),
+                translation: [t.x, t.y, t.z],
+                scale: s,
+            },
+            rms,
+            rounds: run,
+            on,
+        })
+    }
+}
+
 /// `start` refined so that `query` (points in the query's frame) lies on the surface sampled by
-/// `target` with its unit `normals` (see the module documentation); `fixed_scale` keeps the
-/// scale. `None` without at least 7 query and target points, or when the start is not finite.
+/// `target` with its unit `normals` ([`Target::refine`] with [`ROUNDS`] rounds); `fixed_scale`
+/// keeps the scale. `None` without at least 7 query and target points, or when the start is
+/// not finite.
 pub fn refine(
     query: &[[f64; 3]],
     target: &[[f64; 3]],
@@ -54,108 +257,7 @@ pub fn refine(
     start: Alignment,
     fixed_scale: bool,
 ) -> Option<Refined> {
-    if query.len() < 7 || target.len() < 7 || normals.len() != target.len() {
-        return None;
-    }
-    let mut r = Matrix3::from_fn(|i, j| start.rotation[i][j]);
-    let mut s = start.scale;
-    let mut t = v(start.translation);
-    if !(s.is_finite()
-        && s > 0.0
-        && r.iter().all(|x| x.is_finite())
-        && t.iter().all(|x| x.is_finite()))
-    {
-        return None;
-    }
-    let tree: ImmutableKdTree<f64, u32, 3, 32> = ImmutableKdTree::new_from_slice(target);
-    let p: Vec<Vector3<f64>> = query.iter().map(|&x| v(x)).collect();
-    let keep = ((query.len() as f64 * TRIM).ceil() as usize).clamp(7, query.len());
-    let mut pairs: Vec<(f64, usize, usize)> = Vec::with_capacity(query.len());
-    let mut rms = f64::NAN;
-    let mut rounds = 0;
-    for round in 0..ROUNDS {
-        rounds = round + 1;
-        let moved: Vec<Vector3<f64>> = p.iter().map(|x| s * (r * x) + t).collect();
-        pairs.clear();
-        for (i, x) in moved.iter().enumerate() {
-            let nb = tree.nearest_one::<SquaredEuclidean>(&[x.x, x.y, x.z]);
-            pairs.push((nb.distance, i, nb.item as usize));
-        }
-        pairs.select_nth_unstable_by(keep - 1, |a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        let kept = &pairs[..keep];
-        let c = kept.iter().map(|&(_, i, _)| moved[i]).sum::<Vector3<f64>>() / keep as f64;
-        let spread = (kept
-            .iter()
-            .map(|&(_, i, _)| (moved[i] - c).norm_squared())
-            .sum::<f64>()
-            / keep as f64)
-            .sqrt();
-        let dof = if fixed_scale { 6 } else { 7 };
-        let mut ata = SMatrix::<f64, 7, 7>::zeros();
-        let mut atb = SVector::<f64, 7>::zeros();
-        let mut sq = 0.0;
-        for &(_, i, j) in kept {
-            let n = v(normals[j]);
-            let x = moved[i];
-            let y = x - c;
-            let res = (x - v(target[j])).dot(&n);
-            sq += res * res;
-            let w = y.cross(&n);
-            let row = SVector::<f64, 7>::from([w.x, w.y, w.z, n.x, n.y, n.z, n.dot(&y)]);
-            ata += row * row.transpose();
-            atb -= row * res;
-        }
-        rms = (sq / keep as f64).sqrt();
-        // a light ridge keeps directions the points do not constrain (a flat patch's slide)
-        let ridge = 1e-9 * ata.trace().max(f64::MIN_POSITIVE);
-        for k in 0..dof {
-            ata[(k, k)] += ridge;
-        }
-        let x = if fixed_scale {
-            let a6 = ata.fixed_view::<6, 6>(0, 0).into_owned();
-            let b6 = atb.fixed_rows::<6>(0).into_owned();
-            let x6 = a6.cholesky()?.solve(&b6);
-            SVector::<f64, 7>::from([x6[0], x6[1], x6[2], x6[3], x6[4], x6[5], 0.0])
-        } else {
-            ata.cholesky()?.solve(&atb)
-        };
-        let (omega, tau, delta) = (
-            Vector3::new(x[0], x[1], x[2]),
-            Vector3::new(x[3], x[4], x[5]),
-            x[6],
-        );
-        let dr = *Rotation3::new(omega).matrix();
-        let k = 1.0 + delta;
-        // x' = k·dR·(x − c) + c + τ, x = s·R·p + t
-        r = dr * r;
-        s *= k;
-        t = k * (dr * (t - c)) + c + tau;
-        let step = omega.norm() * spread + delta.abs() * spread + tau.norm();
-        if !(s.is_finite() && s > 0.0) {
-            return None;
-        }
-        if step <= CONVERGED * spread.max(f64::MIN_POSITIVE) {
-            break;
-        }
-    }
-    // re-orthonormalise the composed rotation
-    let svd = r.svd(true, true);
-    let (u, vt) = (svd.u?, svd.v_t?);
-    let mut r = u * vt;
-    if r.determinant() < 0.0 {
-        let mut d = Matrix3::identity();
-        d[(2, 2)] = -1.0;
-        r = u * d * vt;
-    }
-    Some(Refined {
-        alignment: Alignment {
-            rotation: std::array::from_fn(|i| std::array::from_fn(|j| r[(i, j)])),
-            translation: [t.x, t.y, t.z],
-            scale: s,
-        },
-        rms,
-        rounds,
-    })
+    Target::new(target, normals)?.refine(query, start, fixed_scale, ROUNDS)
 }
 
 #[cfg(test)]

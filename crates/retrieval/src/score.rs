@@ -39,6 +39,10 @@ pub struct ShapeMatch {
     /// sample) to the target's; `None` when it did not run or found none.
     #[serde(default)]
     pub alignment: Option<verify::Alignment>,
+    /// Other alignments verification found that fit nearly as well, best first
+    /// ([`verify::ALTERNATIVE_FIT`]): refinement on the full surfaces may tell them apart.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub alternatives: Vec<verify::Alignment>,
 }
 
 impl ShapeMatch {
@@ -52,6 +56,7 @@ impl ShapeMatch {
             pose: None,
             verified: None,
             alignment: None,
+            alternatives: Vec::new(),
         }
     }
 }
@@ -170,11 +175,12 @@ pub(crate) fn finish(
     let (pose, agreement) = checks::pose(query, target, &matches, scale, params);
     let score = pairs_score(mq, &matches, &pose, params, weights);
     // a verification that found no alignment counts as fitness 0
-    let fitness = verifying.then(|| verified.map_or(0.0, |v| v.fitness));
+    let fitness = verifying.then(|| verified.as_ref().map_or(0.0, |v| v.fitness));
     let score = score * verification_factor(fitness, params);
     ShapeMatch {
         verified: fitness,
-        alignment: verified.map(|v| v.alignment()),
+        alignment: verified.as_ref().map(|v| v.alignment()),
+        alternatives: verified.map(|v| v.alternatives()).unwrap_or_default(),
         pose: agreement,
         matches,
         score,
@@ -183,15 +189,16 @@ pub(crate) fn finish(
     }
 }
 
-/// The alignment of `query` onto `target` as verification finds it (steps 1–3 of [`verify`])
-/// and its fitness, whatever the verification weight: the pose of a query whose ranking did
-/// not verify it (a closed shape). `None` when either view has no centres or sample, or no
-/// alignment is found.
+/// The alignments of `query` onto `target` as verification finds them (steps 1–3 of
+/// [`verify`]; the best first, then its [`ShapeMatch::alternatives`]) and the best one's
+/// fitness, whatever the verification weight: the pose of a query whose ranking did not verify
+/// it (a closed shape). `None` when either view has no centres or sample, or no alignment is
+/// found.
 pub fn align_views(
     query: ShapeView,
     target: ShapeView,
     params: &MatchParams,
-) -> Option<(verify::Alignment, f64)> {
+) -> Option<(Vec<verify::Alignment>, f64)> {
     if query.sample.is_empty()
         || target.sample.is_empty()
         || query.centres.is_empty()
@@ -200,7 +207,11 @@ pub fn align_views(
         return None;
     }
     let d = crate::assign::distances(query.descriptors, target.descriptors);
-    align(query, target, &d, params).map(|v| (v.alignment(), v.fitness))
+    align(query, target, &d, params).map(|v| {
+        let mut all = vec![v.alignment()];
+        all.extend(v.alternatives());
+        (all, v.fitness)
+    })
 }
 
 /// Step 6's alignment of `query` onto `target` ([`verify::fitness`]) from the tentative pairs

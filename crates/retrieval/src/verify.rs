@@ -10,7 +10,8 @@
 //!    24(6), 1981) each give the least-squares similarity transform (rotation, translation and,
 //!    unless both shapes are in file units, a uniform scale; S. Umeyama, "Least-squares estimation
 //!    of transformation parameters between two point patterns", IEEE TPAMI 13(4), 1991), up to the
-//!    search's cap. A hypothesis counts the places whose centres it brings within
+//!    search's cap; triples of the same places (parts stacked on one keypoint) give one transform,
+//!    tried once. A hypothesis counts the places whose centres it brings within
 //!    [`CENTRE_TOLERANCE`] tolerances (parts of several levels grown from one keypoint share a
 //!    centre and count once); the [`CANDIDATES`] with most (and different inliers) are fitted again
 //!    on their inliers.
@@ -34,6 +35,8 @@
 //! × [`SCREEN_ROUNDS`] rounds on a thinned sample and [`REFINED`] × [`ICP_ITERATIONS`] rounds of
 //! KD-tree look-ups on the whole one: a few milliseconds per target, which is why a query verifies
 //! only its best candidates (`rank::VERIFIED_CANDIDATES`).
+
+use std::collections::HashSet;
 
 use kiddo::SquaredEuclidean;
 use kiddo::immutable::float::kdtree::ImmutableKdTree;
@@ -88,6 +91,14 @@ pub const ICP_ITERATIONS: usize = 12;
 pub const CANDIDATES: usize = 32;
 /// Candidates refined by ICP: those with most of a thinned sample near the target's surface.
 pub const REFINED: usize = 3;
+/// A screened candidate fitting at least this share of the best screened fit may be kept as
+/// an alternative ([`Verified::alternatives`]).
+pub const ALTERNATIVE_FIT: f64 = 0.8;
+/// Most alternatives kept: the screened poses, best first, that differ from the chosen one
+/// and from each other by [`DISTINCT_DEGREES`] or by a few tolerances.
+pub const ALTERNATIVES: usize = 3;
+/// Two poses whose rotations differ by more than this many degrees are distinct.
+pub const DISTINCT_DEGREES: f64 = 10.0;
 /// Every this-many-th sample point is used to screen the candidates.
 pub const SCREEN_STEP: usize = 4;
 /// ICP rounds on the thinned sample when screening.
@@ -169,6 +180,13 @@ impl Similarity {
     fn apply(&self, p: &Vector3<f64>) -> Vector3<f64> {
         self.s * (self.r * p) + self.t
     }
+
+    /// Whether `other` is another pose: rotations more than [`DISTINCT_DEGREES`] apart, or
+    /// the origin moved to places more than `reach` apart.
+    fn differs(&self, other: &Similarity, reach: f64) -> bool {
+        let cos = (((self.r.transpose() * other.r).trace() - 1.0) / 2.0).clamp(-1.0, 1.0);
+        cos.acos().to_degrees() > DISTINCT_DEGREES || (self.t - other.t).norm() > reach
+    }
 }
 
 /// A similarity transform `x ↦ scale · rotation · x + translation` (column vectors) taking a
@@ -204,18 +222,26 @@ impl From<Similarity> for Alignment {
 }
 
 /// What verification found: the alignment and how well the query fits under it.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Verified {
     /// The share of the query's sample within the tolerance of the target's.
     pub fitness: f64,
     transform: Similarity,
     tolerance: f64,
+    /// Other poses that fit nearly as well ([`ALTERNATIVE_FIT`]), best first.
+    others: Vec<Similarity>,
 }
 
 impl Verified {
     /// The alignment, query frame to target frame.
     pub fn alignment(&self) -> Alignment {
         self.transform.into()
+    }
+
+    /// The other alignments that fit nearly as well, best first: a symmetric shape's other
+    /// poses, or a coarse sample's that refinement on the full surfaces tells apart.
+    pub fn alternatives(&self) -> Vec<Alignment> {
+        self.others.iter().map(|&t| t.into()).collect()
     }
 
     /// Whether a query centre `q` lands within [`CENTRE_TOLERANCE`] tolerances of a target
@@ -361,6 +387,11 @@ pub(crate) fn fitness(
     let ratios: Vec<Option<f64>> = (0..m * m).map(|k| ratio_of(k / m, k % m)).collect();
     let ratio = |a: usize, b: usize| ratios[a * m + b];
     let agree = |r: f64, q: f64| r <= q * RATIO_TOLERANCE && q <= r * RATIO_TOLERANCE;
+    // parts of several levels grown from one keypoint share a centre: triples of the same
+    // places give the same transform and are tried once (they still count towards the cap)
+    let mut places = Places::new(&src, &dst);
+    let mut tried: HashSet<[(usize, usize); 3]> = HashSet::new();
+    let mut tries = 0;
     let mut triples: Vec<[usize; 3]> = Vec::new();
     'seeds: for a in 0..m {
         for b in a + 1..m {
@@ -370,8 +401,13 @@ pub(crate) fn fitness(
                     continue;
                 };
                 if fixed_scale.is_some() || (agree(rab, rac) && agree(rab, rbc)) {
-                    triples.push([a, b, c]);
-                    if triples.len() >= search.hypotheses {
+                    let mut key = [places.ids[a], places.ids[b], places.ids[c]];
+                    key.sort_unstable();
+                    if tried.insert(key) {
+                        triples.push([a, b, c]);
+                    }
+                    tries += 1;
+                    if tries >= search.hypotheses {
                         break 'seeds;
                     }
                 }
@@ -380,7 +416,6 @@ pub(crate) fn fitness(
     }
     // every hypothesis with its count of places it brings together and a signature of its
     // inliers (FNV-1a over their positions), so that the choice below need not find them again
-    let mut places = Places::new(&src, &dst);
     let mut scored: Vec<(usize, u64, Similarity)> = Vec::new();
     for [a, b, c] in triples {
         let Some(t) = umeyama(
@@ -500,22 +535,45 @@ pub(crate) fn fitness(
         screened.push((on, t));
     }
     screened.sort_by_key(|x| std::cmp::Reverse(x.0));
+    // the screened poses that fit nearly as well as the best and differ from every pose
+    // before them: the alternatives refinement on the full surfaces chooses among
+    let screened_best = screened.first().map_or(0, |x| x.0);
+    let mut distinct: Vec<Similarity> = Vec::new();
+    for (k, t) in &screened {
+        if distinct.len() > ALTERNATIVES {
+            break;
+        }
+        if *k > 0
+            && *k as f64 >= ALTERNATIVE_FIT * screened_best as f64
+            && distinct
+                .iter()
+                .all(|d| d.differs(t, CENTRE_TOLERANCE * tol))
+        {
+            distinct.push(*t);
+        }
+    }
     screened.truncate(REFINED);
-    let mut best: Option<(usize, Similarity)> = None;
+    let mut fitted: Vec<(usize, Similarity)> = Vec::with_capacity(screened.len());
     for (_, start) in screened {
         let t = icp(start, &q, ICP_ITERATIONS);
         // 3. the share of the query's sample on the target's surface
         let limit = tol2 * relative(&t);
         let on = q.iter().filter(|p| nearest(&t, p).0 <= limit).count();
-        if best.as_ref().is_none_or(|(k, _)| on > *k) {
-            best = Some((on, t));
-        }
+        fitted.push((on, t));
     }
-    let (on, t) = best?;
+    // the best fit wins (the first of equals)
+    fitted.sort_by_key(|x| std::cmp::Reverse(x.0));
+    let (on, t) = *fitted.first()?;
+    let others = distinct
+        .into_iter()
+        .filter(|d| d.differs(&t, CENTRE_TOLERANCE * tol))
+        .take(ALTERNATIVES)
+        .collect();
     Some(Verified {
         fitness: on as f64 / q.len() as f64,
         transform: t,
         tolerance: tol,
+        others,
     })
 }
 
@@ -721,5 +779,33 @@ mod tests {
             (v.transform.r - r.transpose()).norm() < 1e-3,
             "the true rotation"
         );
+        // the alternatives are other poses, each distinct from the chosen one and the others
+        let others = &v.others;
+        assert!(others.len() <= ALTERNATIVES);
+        for (i, a) in others.iter().enumerate() {
+            assert!(a.differs(&v.transform, CENTRE_TOLERANCE * 0.02));
+            assert!(
+                others[..i]
+                    .iter()
+                    .all(|b| b.differs(a, CENTRE_TOLERANCE * 0.02))
+            );
+        }
+    }
+
+    #[test]
+    fn poses_differ_by_rotation_or_place() {
+        let turn = |deg: f64| Similarity {
+            r: Rotation3::from_euler_angles(0.0, 0.0, deg.to_radians()).into_inner(),
+            s: 1.0,
+            t: Vector3::zeros(),
+        };
+        assert!(!turn(0.0).differs(&turn(DISTINCT_DEGREES - 1.0), 0.1));
+        assert!(turn(0.0).differs(&turn(DISTINCT_DEGREES + 1.0), 0.1));
+        let moved = Similarity {
+            t: Vector3::new(0.2, 0.0, 0.0),
+            ..turn(0.0)
+        };
+        assert!(turn(0.0).differs(&moved, 0.1));
+        assert!(!turn(0.0).differs(&moved, 0.3));
     }
 }
