@@ -16,7 +16,8 @@ medians, and the query's first results.
         --scan ../shared/data/scans/bunny/bun000.ply --shapes 1000 --work /tmp/scan-speed
 
 The index is built once (its time and throughput are printed too) and reused by a later run
-with the same WORK folder; `--fresh` rebuilds it.
+with the same WORK folder; `--fresh` rebuilds it. `--base BIN` also alternates another build's
+query on the same index (a before/after in one run).
 """
 
 import argparse
@@ -158,6 +159,7 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0, help="seed of the copies' poses")
     parser.add_argument("--work", required=True, help="folder for the copies and the index")
     parser.add_argument("--fresh", action="store_true", help="rebuild the index")
+    parser.add_argument("--base", help="another keycomp build whose query is alternated too")
     args = parser.parse_args()
     if args.rounds < 1 or args.shapes < 1:
         parser.error("--rounds and --shapes must be at least 1")
@@ -167,25 +169,30 @@ def main() -> None:
     if not os.path.isdir(index):
         build_index(args)
     peer_model = peer_input(args.model, args.work)
-    query = f"{args.bin} query {{mesh}} --index {index} -k 10"
-    times = {"query": [], "peer": []}
-    peak = {"query": 0, "peer": 0}
+    commands = [("query", f"{args.bin} query {{mesh}} --index {index} -k 10", args.scan)]
+    if args.base:
+        commands.append(("base query", f"{args.base} query {{mesh}} --index {index} -k 10",
+                         args.scan))
+    commands.append(("peer", args.peer, peer_model))
+    times = {name: [] for name, _, _ in commands}
+    peak = {name: 0 for name, _, _ in commands}
     for _ in range(args.rounds):
-        for name, command, mesh in (
-            ("query", query, args.scan),
-            ("peer", args.peer, peer_model),
-        ):
+        for name, command, mesh in commands:
             wall, kb = run(command, mesh)
             times[name].append(wall)
             peak[name] = max(peak[name], kb)
     med = {k: statistics.median(v) for k, v in times.items()}
     print("| command | input | wall s (rounds) | median s | peak MB |")
     print("|---|---|---|---:|---:|")
-    for name, mesh in (("query", args.scan), ("peer", args.model)):
+    for name, _, mesh in commands:
+        shown = args.model if name == "peer" else mesh
         rounds = ", ".join(f"{t:.2f}" for t in times[name])
-        print(f"| {name} | {os.path.basename(mesh)} | {rounds} | {med[name]:.2f} | "
+        print(f"| {name} | {os.path.basename(shown)} | {rounds} | {med[name]:.2f} | "
               f"{peak[name] / 1024:.0f} |")
     print(f"peer detection / query: {med['peer'] / med['query']:.1f}x")
+    if args.base:
+        print(f"peer detection / base query: {med['peer'] / med['base query']:.1f}x; "
+              f"query / base query: {med['query'] / med['base query']:.2f}")
     answer = subprocess.run(
         [args.bin, "query", args.scan, "--index", index, "-k", "3", "--json"],
         capture_output=True,
