@@ -736,7 +736,7 @@ impl Analysed {
     /// Where this shape, as the query under scale hypothesis `h`, sits on `target` (of frame
     /// factor `target_frame`): the alignment of the match `m` when its verification found one,
     /// else one found now by verification's search (`keycomp_retrieval::align_views`), then
-    /// the alternatives that fit nearly as well (`keycomp_retrieval::ShapeMatch::alternatives`,
+    /// the other distinct poses verification passed on (`keycomp_retrieval::ShapeMatch::alternatives`,
     /// for [`crate::transform::Transform::refined_best`]); empty when no alignment is found.
     pub fn transforms_onto(
         &self,

@@ -22,10 +22,10 @@ use serde::{Deserialize, Serialize};
 /// Most of the query's input points the refinement moves (every k-th,
 /// [`Transform::refined_best`]).
 pub const REFINE_POINTS: usize = 4000;
-/// Of those, every this-many-th is moved when several candidates are compared.
-pub const QUICK_STEP: usize = 4;
+/// Most of those moved when several candidates are compared (every k-th).
+pub const QUICK_POINTS: usize = 250;
 /// Rounds of refinement of each candidate when several are compared.
-pub const QUICK_ROUNDS: usize = 10;
+pub const QUICK_ROUNDS: usize = 8;
 
 /// The similarity transform taking a query's file coordinates onto a shape's (see the module
 /// documentation for the conventions).
@@ -88,7 +88,7 @@ impl Transform {
     /// (`keycomp_retrieval::refine`: trimmed point-to-plane ICP): `query`, points of the
     /// query's surface, onto `target`, the shape's mesh, both in their files' coordinates; the
     /// scale kept when `fixed_scale` (both in the same units). With several candidates each is
-    /// refined [`QUICK_ROUNDS`] rounds on every [`QUICK_STEP`]-th point and the one that puts
+    /// refined [`QUICK_ROUNDS`] rounds on at most [`QUICK_POINTS`] of the points and the one that puts
     /// most of them on the shape (`keycomp_retrieval::refine::Refined::on`; the earlier of
     /// equals) is refined fully. The first candidate as it is when refinement fails or the
     /// meshes are too small; `None` without candidates.
@@ -125,7 +125,8 @@ impl Transform {
         // the one that puts most of them on the shape refined fully
         let mut chosen = candidates.first().map(|c| (start(c), c.verified))?;
         if candidates.len() > 1 {
-            let few: Vec<[f64; 3]> = points.iter().step_by(QUICK_STEP).copied().collect();
+            let step = points.len().div_ceil(QUICK_POINTS).max(1);
+            let few: Vec<[f64; 3]> = points.iter().step_by(step).copied().collect();
             let mut best = f64::NEG_INFINITY;
             for c in candidates {
                 if let Some(r) = surface.refine(&few, start(c), fixed_scale, QUICK_ROUNDS)

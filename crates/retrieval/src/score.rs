@@ -39,8 +39,8 @@ pub struct ShapeMatch {
     /// sample) to the target's; `None` when it did not run or found none.
     #[serde(default)]
     pub alignment: Option<verify::Alignment>,
-    /// Other alignments verification found that fit nearly as well, best first
-    /// ([`verify::ALTERNATIVE_FIT`]): refinement on the full surfaces may tell them apart.
+    /// Other distinct alignments verification's screening passed, best screened first:
+    /// refinement on the full surfaces may tell them apart.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub alternatives: Vec<verify::Alignment>,
 }

@@ -91,13 +91,8 @@ pub const ICP_ITERATIONS: usize = 12;
 pub const CANDIDATES: usize = 32;
 /// Candidates refined by ICP: those with most of a thinned sample near the target's surface.
 pub const REFINED: usize = 3;
-/// A screened candidate fitting at least this share of the best screened fit may be kept as
-/// an alternative ([`Verified::alternatives`]).
-pub const ALTERNATIVE_FIT: f64 = 0.8;
-/// Most alternatives kept: the screened poses, best first, that differ from the chosen one
-/// and from each other by [`DISTINCT_DEGREES`] or by a few tolerances.
-pub const ALTERNATIVES: usize = 3;
-/// Two poses whose rotations differ by more than this many degrees are distinct.
+/// Two poses whose rotations differ by more than this many degrees are distinct
+/// ([`Verified::alternatives`]).
 pub const DISTINCT_DEGREES: f64 = 10.0;
 /// Every this-many-th sample point is used to screen the candidates.
 pub const SCREEN_STEP: usize = 4;
@@ -228,7 +223,7 @@ pub(crate) struct Verified {
     pub fitness: f64,
     transform: Similarity,
     tolerance: f64,
-    /// Other poses that fit nearly as well ([`ALTERNATIVE_FIT`]), best first.
+    /// The other distinct poses screening passed, best screened first.
     others: Vec<Similarity>,
 }
 
@@ -238,8 +233,9 @@ impl Verified {
         self.transform.into()
     }
 
-    /// The other alignments that fit nearly as well, best first: a symmetric shape's other
-    /// poses, or a coarse sample's that refinement on the full surfaces tells apart.
+    /// The other distinct alignments screening passed, best screened first (fewer than
+    /// [`CANDIDATES`]): a symmetric shape's other poses, or the right one when the thinned
+    /// samples favoured another, which refinement on the full surfaces tells apart.
     pub fn alternatives(&self) -> Vec<Alignment> {
         self.others.iter().map(|&t| t.into()).collect()
     }
@@ -535,16 +531,12 @@ pub(crate) fn fitness(
         screened.push((on, t));
     }
     screened.sort_by_key(|x| std::cmp::Reverse(x.0));
-    // the screened poses that fit nearly as well as the best and differ from every pose
-    // before them: the alternatives refinement on the full surfaces chooses among
-    let screened_best = screened.first().map_or(0, |x| x.0);
+    // the screened poses that put some of the sample on the target and differ from every
+    // pose before them: the alternatives refinement on the full surfaces chooses among (the
+    // truth is often one of them when the thinned samples favour another)
     let mut distinct: Vec<Similarity> = Vec::new();
     for (k, t) in &screened {
-        if distinct.len() > ALTERNATIVES {
-            break;
-        }
         if *k > 0
-            && *k as f64 >= ALTERNATIVE_FIT * screened_best as f64
             && distinct
                 .iter()
                 .all(|d| d.differs(t, CENTRE_TOLERANCE * tol))
@@ -567,7 +559,6 @@ pub(crate) fn fitness(
     let others = distinct
         .into_iter()
         .filter(|d| d.differs(&t, CENTRE_TOLERANCE * tol))
-        .take(ALTERNATIVES)
         .collect();
     Some(Verified {
         fitness: on as f64 / q.len() as f64,
@@ -781,7 +772,7 @@ mod tests {
         );
         // the alternatives are other poses, each distinct from the chosen one and the others
         let others = &v.others;
-        assert!(others.len() <= ALTERNATIVES);
+        assert!(others.len() < CANDIDATES);
         for (i, a) in others.iter().enumerate() {
             assert!(a.differs(&v.transform, CENTRE_TOLERANCE * 0.02));
             assert!(
