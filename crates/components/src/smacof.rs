@@ -233,7 +233,7 @@ pub fn smacof_upper(
 }
 
 /// The upper triangle of a distance matrix (`δ_ij`, `i < j`), row after row (row `i` at
-/// [`row_start`]`(i, k)`), divided by `unit`, the power of two that brings the largest distance
+/// `row_start(i, k)`), divided by `unit`, the power of two that brings the largest distance
 /// into `[½, 1)` (1 when every distance is 0): what SMACOF reads. Half the memory of the square
 /// matrix, read in order, with coordinates of order 1; dividing by a power of two is exact, so
 /// scaling back is too.

@@ -211,7 +211,7 @@ pub struct Analysed {
     /// What the reader noticed and tolerated (unknown header lines, dropped NaN points, …).
     pub warnings: Vec<String>,
     /// The input as read (the mesh or the points of the file, in its coordinates): where a
-    /// pose is refined ([`crate::transform::Transform::refined`]) and a canonical surface's
+    /// pose is refined ([`crate::transform::Transform::refined_best`]) and a canonical surface's
     /// colours are carried back.
     pub input: Geometry,
     /// Its key-components (Sipiran & Bustos 2013).

@@ -92,7 +92,7 @@ pub const CANDIDATES: usize = 32;
 /// Candidates refined by ICP: those with most of a thinned sample near the target's surface.
 pub const REFINED: usize = 3;
 /// Two poses whose rotations differ by more than this many degrees are distinct
-/// ([`Verified::alternatives`]).
+/// ([`crate::ShapeMatch::alternatives`]).
 pub const DISTINCT_DEGREES: f64 = 10.0;
 /// Every this-many-th sample point is used to screen the candidates.
 pub const SCREEN_STEP: usize = 4;

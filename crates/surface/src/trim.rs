@@ -94,7 +94,7 @@ impl<'a> Nearest<'a> {
 }
 
 /// Samples whose faces are tried when projecting a vertex onto a mesh ([`project`]).
-const PROJECTION_CANDIDATES: usize = 6;
+pub const PROJECTION_CANDIDATES: usize = 6;
 
 /// Faces kept by [`one_sided`] and how many were removed.
 #[derive(Debug, Clone, PartialEq)]
@@ -210,7 +210,7 @@ pub fn project(
 const SLIVER: f64 = 1e-6;
 
 /// Halfway moves back tried on slivers before their vertices return to the offset surface.
-const SLIVER_PASSES: usize = 3;
+pub const SLIVER_PASSES: usize = 3;
 
 fn project_all(positions: &mut [Point3<f64>], nearest: &Nearest, mesh: Option<&Mesh>, r: f64) {
     let samples = nearest.samples;

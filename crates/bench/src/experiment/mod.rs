@@ -47,7 +47,7 @@
 //! [`Config::mser`] (Laplace–Beltrami spectrum of the full mesh, no simplification), cached
 //! beside the stage-1 entries
 //! ([`EmbeddingCache::load_mser`](crate::cache::EmbeddingCache::load_mser), keyed by content,
-//! MSER parameters and [`crate::cache::MSER_VERSION`]). The keypoint budget does not apply to
+//! MSER parameters and [`crate::cache::CACHE_VERSION`]). The keypoint budget does not apply to
 //! them (HKS keypoints are the 2-ring maxima, however many).
 //!
 //! **Keypoint budget** ([`Budget`]). The paper's presets take 1 % of *each shape's own* vertex

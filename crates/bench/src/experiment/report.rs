@@ -31,7 +31,7 @@ pub struct PresetScores {
 pub struct ShapeReport {
     /// Null shape name.
     pub null: String,
-    /// `null`, a [`Kind`] name or `isometry`.
+    /// `null`, a [`crate::transform::Kind`] name or `isometry`.
     pub kind: String,
     /// Strength 1..=5 (0 for the null shape).
     pub strength: u8,
@@ -85,7 +85,7 @@ pub struct PresetReport {
     /// paper's sampling row (0.62 at strength 1 but 0.00 at "≤ 5") is only consistent with this
     /// reading, so both are reported.
     pub mean_overlap_per_strength: CumulativeTable,
-    /// Repeatability at overlap [`PAPER_OVERLAP`] in the same layout.
+    /// Repeatability at overlap [`crate::experiment::PAPER_OVERLAP`] in the same layout.
     pub repeatability_at_0_8: CumulativeTable,
     /// Components pooled per transformation and cumulative strength (same layout).
     pub component_counts: Vec<(String, Vec<usize>)>,
@@ -95,7 +95,7 @@ pub struct PresetReport {
     pub paper: Option<&'static PaperTable>,
 }
 
-/// The result of [`run`]; serialised as `results.json`. Deterministic for the same data,
+/// The result of [`crate::experiment::run`]; serialised as `results.json`. Deterministic for the same data,
 /// configuration and seed (no timings in it: see [`RunStats`]).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Report {
@@ -115,7 +115,7 @@ pub struct Report {
     pub geodesic: GeodesicOptions,
     /// Parameters of the MSER methods (used by presets `MSER` and `MSER-KC` only).
     pub mser: MserParams,
-    /// The canonical surface key-components were detected on ([`Config::surface`]); absent:
+    /// The canonical surface key-components were detected on ([`crate::experiment::Config::surface`]); absent:
     /// on the meshes themselves.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub surface: Option<SurfaceParams>,
@@ -134,7 +134,7 @@ pub struct Report {
 /// Timings and cache use of a run (not deterministic, kept out of [`Report`]).
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct RunStats {
-    /// Wall-clock seconds of [`run`].
+    /// Wall-clock seconds of [`crate::experiment::run`].
     pub seconds: f64,
     /// Shapes whose stage 1 came from the cache.
     pub cache_hits: usize,

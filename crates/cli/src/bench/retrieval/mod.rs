@@ -4,7 +4,7 @@
 //!
 //! **Key-components** go through the product path: every collection file is analysed by
 //! [`keycomp::record_of`], the function `keycomp index add` uses, with the same
-//! detection options ([`DetectArgs::retrieval_params`], the same defaults, including the
+//! detection options ([`crate::args::DetectArgs::retrieval_params`], the same defaults, including the
 //! scaling of N for small meshes), the records are written to a fresh on-disk index in
 //! `OUT/index` (opened by [`crate::progress::open_writer`], as `index add` does), and each query is ranked by `keycomp_retrieval::rank` over that
 //! index, as `keycomp query` does. A partial query is written to `OUT/fragments` as an OFF file
@@ -12,9 +12,9 @@
 //! [`keycomp::Role::Query`]: scale-free, a fragment is described under two scale hypotheses
 //! and ranked by `keycomp_retrieval::rank_hypotheses`); so is a whole shape with a boundary
 //! queried whole. Shapes `rank` does not return (no part among the nearest
-//! neighbours of a query part) follow in a seeded random order ([`complete_ranking`]).
+//! neighbours of a query part) follow in a seeded random order ([`keycomp_bench::retrieval::complete_ranking`]).
 //!
-//! **Baselines** are a descriptor per mesh and a distance between descriptors ([`Baseline`]),
+//! **Baselines** are a descriptor per mesh and a distance between descriptors ([`baselines::Baseline`]),
 //! computed on the same queries (a fragment's descriptors from the fragment mesh that is written
 //! and indexed for key-components):
 //!

@@ -55,7 +55,7 @@ pub(super) struct QueryResult {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub(super) error: Option<String>,
     pub(super) key_components: MethodResult,
-    /// One result per baseline, by [`Baseline::key`] (`d2`, `fpfh_bow`, `fpfh_bow_units`).
+    /// One result per baseline, by [`super::baselines::Baseline::key`] (`d2`, `fpfh_bow`, `fpfh_bow_units`).
     #[serde(flatten)]
     pub(super) baselines: BTreeMap<&'static str, MethodResult>,
     /// A seeded random ranking, the chance level of every measure (summarised only).
@@ -98,7 +98,7 @@ pub(super) struct QuerySet {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub(super) mean_fraction: Option<f64>,
     pub(super) key_components: MethodSummary,
-    /// One summary per baseline, by [`Baseline::key`].
+    /// One summary per baseline, by [`super::baselines::Baseline::key`].
     #[serde(flatten)]
     pub(super) baselines: BTreeMap<&'static str, MethodSummary>,
     /// A seeded random ranking of the same queries: the chance level.
