@@ -121,8 +121,8 @@ impl Transform {
             translation: c.translation,
             scale: c.scale,
         };
-        // several candidates: a first look at each (a few rounds on a quarter of the points),
-        // the one that puts most of them on the shape refined fully
+        // several candidates: a first look at each (a few rounds on a few of the points), the
+        // one that puts most of them on the shape refined fully from where that look left it
         let mut chosen = candidates.first().map(|c| (start(c), c.verified))?;
         if candidates.len() > 1 {
             let step = points.len().div_ceil(QUICK_POINTS).max(1);
