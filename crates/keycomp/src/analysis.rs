@@ -521,23 +521,26 @@ impl Measured<'_> {
             keycomp_describe::Units::ScaleFree
         );
         let mut hypotheses = if role == Role::Query && scale_free && self.may_be_open() {
-            // sampled as a fragment under every hypothesis side by side; if the first surface
-            // has no boundary, the query is whole
-            let mut surfaces: Vec<Result<Mesh, Error>> = FRAGMENT_SHARES
-                .par_iter()
-                .map(|&share| self.surface(share))
-                .collect();
-            let first = surfaces.remove(0)?;
+            let [s0, s1] = FRAGMENT_SHARES;
+            // sampled as a fragment first: if that surface has no boundary, the query is whole.
+            // A point cloud is nearly always a view: its second surface is sampled beside the
+            // first at once; a mesh with a boundary (a soup) often closes, so it waits
+            let (first, second) = match &self.geometry {
+                Geometry::Points(_) => {
+                    let (a, b) = rayon::join(|| self.surface(s0), || self.surface(s1));
+                    (a?, Some(b))
+                }
+                Geometry::Mesh(_) => (self.surface(s0)?, None),
+            };
             if Topology::new(&first).boundary_vertices().is_empty() {
                 vec![self.hypothesis(self.surface(1.0)?, 1.0)?]
             } else {
-                std::iter::once(Ok(first))
-                    .chain(surfaces)
-                    .collect::<Result<Vec<Mesh>, Error>>()?
-                    .into_par_iter()
-                    .zip(FRAGMENT_SHARES)
-                    .map(|(mesh, share)| self.hypothesis(mesh, share))
-                    .collect::<Result<Vec<_>, Error>>()?
+                // the hypotheses are independent: analysed side by side
+                let (h0, h1) = rayon::join(
+                    || self.hypothesis(first, s0),
+                    || self.hypothesis(second.unwrap_or_else(|| self.surface(s1))?, s1),
+                );
+                vec![h0?, h1?]
             }
         } else {
             vec![self.hypothesis(self.surface(1.0)?, 1.0)?]
