@@ -223,15 +223,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         rot.push(angle);
         scale.push(s_err);
         disp.push(med);
-        if symmetric {
-            (rot_sym.push(0.0), scale_sym.push(0.0), disp_sym.push(0.0));
+        // up to symmetry: a pose as right as the truth counts as right
+        let (r, sc, d) = if symmetric {
+            (0.0, 0.0, 0.0)
         } else {
-            (
-                rot_sym.push(angle),
-                scale_sym.push(s_err),
-                disp_sym.push(med),
-            );
-        }
+            (angle, s_err, med)
+        };
+        rot_sym.push(r);
+        scale_sym.push(sc);
+        disp_sym.push(d);
     }
     println!();
     println!(

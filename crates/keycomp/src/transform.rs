@@ -238,8 +238,8 @@ mod tests {
             let t =
                 Transform::refined_best(&candidates, &query, &surface, true).expect("a transform");
             assert!(t.angle_degrees() < 0.1, "{t:?}");
-            for i in 0..3 {
-                assert!((t.translation[i] - shift[i]).abs() < 1e-3, "{t:?}");
+            for (got, want) in t.translation.iter().zip(shift) {
+                assert!((got - want).abs() < 1e-3, "{t:?}");
             }
         }
         assert!(Transform::refined_best(&[], &query, &surface, true).is_none());
