@@ -89,7 +89,7 @@ impl Transform {
     /// query's surface, onto `target`, the shape's mesh, both in their files' coordinates; the
     /// scale kept when `fixed_scale` (both in the same units). With several candidates each is
     /// refined [`QUICK_ROUNDS`] rounds on at most [`QUICK_POINTS`] of the points and the one that puts
-    /// most of them on the shape (`keycomp_retrieval::refine::Refined::on`; the earlier of
+    /// most of them on the shape (`keycomp_retrieval::refine::Target::on`; the earlier of
     /// equals) is refined fully. The first candidate as it is when refinement fails or the
     /// meshes are too small; `None` without candidates.
     pub fn refined_best(
@@ -129,11 +129,12 @@ impl Transform {
             let few: Vec<[f64; 3]> = points.iter().step_by(step).copied().collect();
             let mut best = f64::NEG_INFINITY;
             for c in candidates {
-                if let Some(r) = surface.refine(&few, start(c), fixed_scale, QUICK_ROUNDS)
-                    && r.on > best
-                {
-                    best = r.on;
-                    chosen = (r.alignment, c.verified);
+                if let Some(r) = surface.refine(&few, start(c), fixed_scale, QUICK_ROUNDS) {
+                    let on = surface.on(&few, &r.alignment);
+                    if on > best {
+                        best = on;
+                        chosen = (r.alignment, c.verified);
+                    }
                 }
             }
         }

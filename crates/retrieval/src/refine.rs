@@ -17,8 +17,8 @@
 //!
 //! Trimmed pairs fit a wrong pose too (a blobby shape's back fits it turned over, to the 70 %
 //! kept); what tells poses apart is the share of *all* the query's points that end on the
-//! surface ([`Refined::on`]: within half a target spacing of a tangent plane), which
-//! [`Target::refine`] reports so that a caller can refine several starts and keep the best.
+//! surface ([`Target::on`]: within half a target spacing of a tangent plane), by which a
+//! caller refining several starts keeps the best.
 //!
 //! Cost: O(rounds · m log n) for m query points and n target points.
 
@@ -52,11 +52,6 @@ pub struct Refined {
     pub alignment: Alignment,
     /// Root mean square of the kept pairs' point-to-plane distances, in the target's units.
     pub rms: f64,
-    /// Rounds run.
-    pub rounds: usize,
-    /// The share of the query's points on the target once moved ([`ON_PLANE`], [`ON_REACH`]):
-    /// what tells a pose from another that fits the trimmed pairs as well.
-    pub on: f64,
 }
 
 fn v(p: [f64; 3]) -> Vector3<f64> {
@@ -134,9 +129,7 @@ impl<'a> Target<'a> {
         let keep = ((query.len() as f64 * TRIM).ceil() as usize).clamp(7, query.len());
         let mut pairs: Vec<(f64, usize, usize)> = Vec::with_capacity(query.len());
         let mut rms = f64::NAN;
-        let mut run = 0;
-        for round in 0..rounds {
-            run = round + 1;
+        for _ in 0..rounds {
             let moved: Vec<Vector3<f64>> = p.iter().map(|x| s * (r * x) + t).collect();
             pairs.clear();
             for (i, x) in moved.iter().enumerate() {
@@ -222,17 +215,6 @@ impl<'a> Target<'a> {
             d[(2, 2)] = -1.0;
             r = u * d * vt;
         }
-        // the share of the query on the surface
-        let on = p
-            .iter()
-            .filter(|x| {
-                let y = s * (r * *x) + t;
-                let (d2, j) = self.nearest(&y);
-                d2 <= (ON_REACH * self.spacing).powi(2)
-                    && (y - v(target[j])).dot(&v(normals[j])).abs() <= ON_PLANE * self.spacing
-            })
-            .count() as f64
-            / p.len() as f64;
         Some(Refined {
             alignment: Alignment {
                 rotation: std::array::from_fn(|i| std::array::from_fn(|j| r[(i, j)])),
@@ -240,24 +222,29 @@ impl<'a> Target<'a> {
                 scale: s,
             },
             rms,
-            rounds: run,
-            on,
         })
     }
-}
 
-/// `start` refined so that `query` (points in the query's frame) lies on the surface sampled by
-/// `target` with its unit `normals` ([`Target::refine`] with [`ROUNDS`] rounds); `fixed_scale`
-/// keeps the scale. `None` without at least 7 query and target points, or when the start is
-/// not finite.
-pub fn refine(
-    query: &[[f64; 3]],
-    target: &[[f64; 3]],
-    normals: &[[f64; 3]],
-    start: Alignment,
-    fixed_scale: bool,
-) -> Option<Refined> {
-    Target::new(target, normals)?.refine(query, start, fixed_scale, ROUNDS)
+    /// The share of `query`'s points (in the query's frame) that `alignment` puts on the
+    /// surface: within [`ON_PLANE`] target spacings of the tangent plane of their nearest
+    /// target point, itself within [`ON_REACH`] spacings. What tells a pose from another that
+    /// fits the trimmed pairs as well; 0 without points.
+    pub fn on(&self, query: &[[f64; 3]], alignment: &Alignment) -> f64 {
+        if query.is_empty() {
+            return 0.0;
+        }
+        let on = query
+            .iter()
+            .filter(|&&x| {
+                let y = v(alignment.apply(x));
+                let (d2, j) = self.nearest(&y);
+                d2 <= (ON_REACH * self.spacing).powi(2)
+                    && (y - v(self.points[j])).dot(&v(self.normals[j])).abs()
+                        <= ON_PLANE * self.spacing
+            })
+            .count();
+        on as f64 / query.len() as f64
+    }
 }
 
 #[cfg(test)]
@@ -290,6 +277,7 @@ mod tests {
     #[test]
     fn a_moved_patch_is_registered_back() {
         let (target, normals) = wavy(120);
+        let surface = Target::new(&target, &normals).expect("a target");
         let truth_r = Rotation3::from_euler_angles(0.4, -0.3, 0.9);
         let (truth_s, truth_t) = (0.5, Vector3::new(0.3, -0.1, 0.2));
         // the query: the patch x, y < 0.4, given in a frame where truth maps it onto target
@@ -308,7 +296,9 @@ mod tests {
             translation: [truth_t.x + 0.03, truth_t.y - 0.02, truth_t.z],
             scale: truth_s * 1.04,
         };
-        let got = refine(&query, &target, &normals, start, false).expect("refined");
+        let got = surface
+            .refine(&query, start, false, ROUNDS)
+            .expect("refined");
         let r = Matrix3::from_fn(|i, j| got.alignment.rotation[i][j]);
         let d = r * truth_r.matrix().transpose();
         let angle = ((d.trace() - 1.0) / 2.0)
@@ -332,7 +322,9 @@ mod tests {
             scale: truth_s,
             ..start
         };
-        let got = refine(&query, &target, &normals, fixed, true).expect("refined");
+        let got = surface
+            .refine(&query, fixed, true, ROUNDS)
+            .expect("refined");
         assert_eq!(got.alignment.scale, truth_s);
         assert!(
             (v(got.alignment.translation) - truth_t).norm() < 1e-3,
@@ -340,11 +332,11 @@ mod tests {
             got
         );
         // too few points, or a start that is not a number, give nothing
-        assert!(refine(&query[..3], &target, &normals, start, false).is_none());
+        assert!(surface.refine(&query[..3], start, false, ROUNDS).is_none());
         let bad = Alignment {
             scale: f64::NAN,
             ..start
         };
-        assert!(refine(&query, &target, &normals, bad, false).is_none());
+        assert!(surface.refine(&query, bad, false, ROUNDS).is_none());
     }
 }
