@@ -267,6 +267,39 @@ pub fn best_overlaps(
         .collect()
 }
 
+/// The vertices of the null shape (`positions`, `topology`) within `radius` of any of
+/// `sources` along its edges (multi-source Dijkstra over Euclidean edge lengths, an upper bound
+/// of the geodesic distance), sorted.
+pub fn within(
+    positions: &[keycomp_mesh::Point3<f64>],
+    topology: &Topology,
+    sources: &[VertexId],
+    radius: f64,
+) -> Vec<VertexId> {
+    let seeds: Vec<(VertexId, u32)> = sources.iter().map(|&v| (v, 0)).collect();
+    let mut out = Vec::new();
+    dijkstra(positions, topology, &seeds, radius, |v, _, _| {
+        out.push(v);
+        true
+    });
+    out.sort_unstable();
+    out.dedup();
+    out
+}
+
+/// The share of `points` (null vertices, e.g. a transformed shape's keypoints carried to the
+/// null shape) that lie in `near` (sorted null vertices, e.g. [`within`] a radius of the null
+/// shape's keypoints); `None` for no points.
+pub fn share_within(near: &[VertexId], points: &[VertexId]) -> Option<f64> {
+    (!points.is_empty()).then(|| {
+        let hits = points
+            .iter()
+            .filter(|v| near.binary_search(v).is_ok())
+            .count();
+        hits as f64 / points.len() as f64
+    })
+}
+
 /// Repeatability at overlap `o`: the fraction of transformed components whose best overlap is
 /// strictly greater than `o`; 0 when there are no components.
 pub fn repeatability(best_overlaps: &[f64], o: f64) -> f64 {
@@ -307,7 +340,8 @@ pub struct TableRow {
 }
 
 /// A table in the layout of the paper's Table 1: one row per transformation (in order of first
-/// appearance in the records), one column per cumulative strength ≤ 1 … ≤ 5, and an average row.
+/// appearance in the records), one column per cumulative strength ≤ 1 … ≤ 5, and an average row
+/// ([`average_row`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CumulativeTable {
     /// One row per transformation.
@@ -348,13 +382,24 @@ pub fn cumulative_table(
             }
         })
         .collect();
-    let average = (0..columns)
+    let average = average_row(&rows, columns);
+    CumulativeTable { rows, average }
+}
+
+/// Per column, the mean of the values present in the rows that count in the average
+/// ([`crate::paper::in_average`]: the paper's rows, or every row when there is none of them).
+pub fn average_row(rows: &[TableRow], columns: usize) -> Vec<Option<f64>> {
+    let paper = rows.iter().any(|r| crate::paper::in_average(&r.kind));
+    (0..columns)
         .map(|c| {
-            let present: Vec<f64> = rows.iter().filter_map(|r| r.values[c]).collect();
+            let present: Vec<f64> = rows
+                .iter()
+                .filter(|r| !paper || crate::paper::in_average(&r.kind))
+                .filter_map(|r| r.values.get(c).copied().flatten())
+                .collect();
             (!present.is_empty()).then(|| present.iter().sum::<f64>() / present.len() as f64)
         })
-        .collect();
-    CumulativeTable { rows, average }
+        .collect()
 }
 
 /// The paper's Table 1: average best overlap per transformation and cumulative strength

@@ -22,11 +22,26 @@ pub const PAPER_ROWS: [(&str, &str); 9] = [
     ("holes", "Holes"),
 ];
 
+/// Rows of ours beyond the paper's, after them in tables, and left out of the average row
+/// (which stays comparable with the paper's): independent re-tessellations of the null shapes
+/// and of the real poses (`keycomp bench repeatability --remeshed DIR`).
+pub const EXTRA_ROWS: [(&str, &str); 2] = [
+    ("retessellation", "Re-tessellation"),
+    ("isometry-remeshed", "Isometry, remeshed"),
+];
+
+/// Whether a row counts in a table's average row: one of the paper's rows (when a table has
+/// none of them, every row counts).
+pub fn in_average(kind: &str) -> bool {
+    PAPER_ROWS.iter().any(|(k, _)| *k == kind)
+}
+
 /// The table label of a kind name (`"microholes"` → `"Micro holes"`); the name itself if it is
 /// not one of the paper's rows.
 pub fn row_label(kind: &str) -> &str {
     PAPER_ROWS
         .iter()
+        .chain(&EXTRA_ROWS)
         .find(|(k, _)| *k == kind)
         .map_or(kind, |(_, label)| label)
 }
@@ -35,8 +50,9 @@ pub fn row_label(kind: &str) -> &str {
 pub fn row_order(kind: &str) -> usize {
     PAPER_ROWS
         .iter()
+        .chain(&EXTRA_ROWS)
         .position(|(k, _)| *k == kind)
-        .unwrap_or(PAPER_ROWS.len())
+        .unwrap_or(PAPER_ROWS.len() + EXTRA_ROWS.len())
 }
 
 /// One of the paper's average-overlap tables.

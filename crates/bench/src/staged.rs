@@ -70,8 +70,9 @@ impl Extractor {
         Extractor { norm, topo }
     }
 
-    /// The vertex sets (sorted ids) of the key-components that `cluster`, `sigma` and the
-    /// growing sphere's rule give on `embedded`, in cluster order.
+    /// The key-components that `cluster`, `sigma` and the growing sphere's rule give on
+    /// `embedded`, in cluster order: each cluster's keypoints and the vertices region growing
+    /// reached from them (sorted ids).
     ///
     /// Errors: invalid parameters, or an embedding whose keypoints are not vertices of this
     /// mesh or whose point count differs from its keypoint count.
@@ -81,7 +82,7 @@ impl Extractor {
         cluster: &ClusterParams,
         sigma: f64,
         sphere: SphereRule,
-    ) -> Result<Vec<Vec<VertexId>>, ComponentsError> {
+    ) -> Result<Vec<Found>, ComponentsError> {
         let mut grower = RegionGrower::new(&self.norm, &self.topo)?;
         let extracted = extract_components(
             &self.norm,
@@ -95,10 +96,22 @@ impl Extractor {
         let out = extracted
             .components
             .into_iter()
-            .map(|c| c.grown.vertices)
+            .map(|c| Found {
+                keypoints: c.keypoints,
+                vertices: c.grown.vertices,
+            })
             .collect();
         Ok(out)
     }
+}
+
+/// One key-component found by [`Extractor::components`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct Found {
+    /// Its cluster's keypoints (sorted vertex ids).
+    pub keypoints: Vec<VertexId>,
+    /// The vertices region growing reached (sorted ids).
+    pub vertices: Vec<VertexId>,
 }
 
 #[cfg(test)]
@@ -137,10 +150,16 @@ mod tests {
             let expected: Vec<Vec<VertexId>> =
                 det.components.iter().map(|c| c.vertices.clone()).collect();
             let p = components(preset);
-            let got = extractor
+            let found = extractor
                 .components(&embedded, &p.cluster, p.sigma, p.sphere)
                 .unwrap();
+            let got: Vec<Vec<VertexId>> = found.iter().map(|f| f.vertices.clone()).collect();
             assert_eq!(got, expected, "{preset}");
+            let clusters: Vec<Vec<VertexId>> =
+                det.components.iter().map(|c| c.keypoints.clone()).collect();
+            let found_clusters: Vec<Vec<VertexId>> =
+                found.iter().map(|f| f.keypoints.clone()).collect();
+            assert_eq!(found_clusters, clusters, "{preset}");
             assert!(
                 !got.is_empty(),
                 "{preset}: the test shape must give some components"

@@ -1,6 +1,8 @@
 //! What a run evaluates: the presets (key-components or the MSER methods), the keypoint
 //! budget, the detection parameters, the transformations and strengths, the cache.
 
+use std::path::{Path, PathBuf};
+
 use keycomp_components::{ClusterParams, GeodesicOptions, SmacofParams, SphereRule};
 use keycomp_harris::{HarrisParams, Selection};
 use keycomp_mesh::Mesh;
@@ -138,9 +140,31 @@ pub struct Config {
     /// the mesh as generated, the components carried back to the mesh's vertices
     /// ([`Pullback::nearest`](crate::evaluate::Pullback::nearest)); `None`: on the mesh itself. Key-components only.
     pub surface: Option<SurfaceParams>,
+    /// The folder of independent re-tessellations written by `scripts/retessellate.py`
+    /// (`s<density>/<data subfolder>/<name>.off`), read by the rows below.
+    pub remeshed: Option<PathBuf>,
+    /// Run the re-tessellation row: each null shape remeshed at densities 1–5 (the
+    /// strengths), its vertices mapped to the nearest null vertex.
+    pub retessellation: bool,
+    /// Run the remeshed-isometry row: each real pose remeshed at the middle density, its
+    /// vertices mapped to the nearest vertex of the pose (numbered as the null shape's).
+    pub remeshed_isometry: bool,
 }
 
 impl Config {
+    /// The re-tessellation of `original` (a null shape's or a pose's file) at `density` in
+    /// [`Config::remeshed`]: `s<density>/<folder of original>/<stem>.off`.
+    pub(super) fn remeshed_file(&self, original: &Path, density: u8) -> Option<PathBuf> {
+        let dir = self.remeshed.as_ref()?;
+        let folder = original.parent()?.file_name()?;
+        let stem = original.file_stem()?.to_string_lossy().into_owned();
+        Some(
+            dir.join(format!("s{density}"))
+                .join(folder)
+                .join(format!("{stem}.off")),
+        )
+    }
+
     /// The keypoint selection of `shape` under the budget (a count, resolved from the
     /// shape's or the null shape's referenced vertices).
     pub(super) fn selection_for(&self, shape: &Mesh, null_referenced: usize) -> Selection {

@@ -7,7 +7,7 @@ use keycomp_components::SphereRule;
 use keycomp_mser::Method;
 
 use super::config::PresetSpec;
-use super::report::Report;
+use super::report::{CLUSTER_RADIUS, KEYPOINT_RADIUS, Report};
 use crate::paper::row_label;
 
 fn cell(v: Option<f64>) -> String {
@@ -162,6 +162,32 @@ impl Report {
             }
             let avg: Vec<String> = table.average.iter().map(|v| cell(*v)).collect();
             let _ = writeln!(s, "| Average | {} |", avg.join(" | "));
+            if pr
+                .stages
+                .iter()
+                .any(|r| r.keypoints.is_some() || r.clusters.is_some())
+            {
+                let _ = writeln!(
+                    s,
+                    "\n{}, stage by stage (all strengths pooled): the share of keypoints within \
+                     {KEYPOINT_RADIUS} unit lengths of a null keypoint, the mean best overlap of \
+                     the clusters (the area within {CLUSTER_RADIUS} unit lengths of their \
+                     keypoints) and of the components:\n",
+                    pr.preset.name
+                );
+                let _ = writeln!(s, "| Transform. | keypoints | clusters | components |");
+                let _ = writeln!(s, "|---|---:|---:|---:|");
+                for r in &pr.stages {
+                    let _ = writeln!(
+                        s,
+                        "| {} | {} | {} | {} |",
+                        row_label(&r.kind),
+                        cell(r.keypoints),
+                        cell(r.clusters),
+                        cell(r.components)
+                    );
+                }
+            }
             let _ = writeln!(s);
             // the null shapes' own detections explain empty or weak rows
             let nulls: Vec<String> = self

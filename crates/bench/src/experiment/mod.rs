@@ -80,8 +80,9 @@ mod tests;
 pub use config::{Budget, Config, PresetSpec};
 pub use discover::{ISOMETRY, NullSpec, PoseSpec, discover};
 pub use report::{
-    CurveReport, PresetReport, PresetScores, REPORT_FORMAT, Report, RunStats, ShapeReport, Skipped,
+    CLUSTER_RADIUS, CurveReport, KEYPOINT_RADIUS, PresetReport, PresetScores, REPORT_FORMAT,
+    Report, RunStats, ShapeReport, Skipped, StageRow,
 };
 pub use run::{Progress, run};
 pub use score::{PAPER_OVERLAP, thresholds};
-pub use shape::CacheUse;
+pub use shape::{CacheUse, ISOMETRY_REMESHED, REMESHED_POSE_DENSITY, RETESSELLATION};

@@ -24,7 +24,18 @@ pub struct PresetScores {
     /// Best overlap of each component with a component of the null shape (empty for a null
     /// shape).
     pub best_overlaps: Vec<f64>,
+    /// Best overlap of each component's cluster with a cluster of the null shape, a cluster
+    /// standing for the null vertices within [`CLUSTER_RADIUS`] of its keypoints (empty for a
+    /// null shape and for the MSER methods).
+    pub cluster_overlaps: Vec<f64>,
 }
+
+/// Unit lengths (square roots of the null shape's area) within which a transformed keypoint
+/// counts as repeated when a null keypoint lies there ([`ShapeReport::keypoint_share`]).
+pub const KEYPOINT_RADIUS: f64 = 0.02;
+/// Unit lengths around its keypoints that stand for a cluster
+/// ([`PresetScores::cluster_overlaps`]).
+pub const CLUSTER_RADIUS: f64 = 0.05;
 
 /// One shape of the run.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -43,6 +54,9 @@ pub struct ShapeReport {
     pub faces: usize,
     /// Keypoints detected.
     pub keypoints: usize,
+    /// The share of its keypoints, carried to the null shape, within [`KEYPOINT_RADIUS`] of
+    /// a keypoint of the null shape (none for a null shape or without keypoints).
+    pub keypoint_share: Option<f64>,
     /// Per preset, in [`Report::presets`] order.
     pub presets: Vec<PresetScores>,
 }
@@ -58,6 +72,21 @@ pub struct Skipped {
     pub strength: u8,
     /// Why.
     pub reason: String,
+}
+
+/// Where repeatability is lost, for one transformation (all strengths pooled): the mean
+/// [`ShapeReport::keypoint_share`] of its shapes, the mean best overlap of the clusters
+/// ([`PresetScores::cluster_overlaps`]) and of the components.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct StageRow {
+    /// Transformation name.
+    pub kind: String,
+    /// Mean share of keypoints repeated.
+    pub keypoints: Option<f64>,
+    /// Mean best overlap of the clusters.
+    pub clusters: Option<f64>,
+    /// Mean best overlap of the components.
+    pub components: Option<f64>,
 }
 
 /// One curve of Figs. 7–9.
@@ -91,6 +120,9 @@ pub struct PresetReport {
     pub component_counts: Vec<(String, Vec<usize>)>,
     /// Repeatability-vs-overlap per transformation, all strengths pooled.
     pub curves: Vec<CurveReport>,
+    /// Stage by stage, per transformation, all strengths pooled: keypoints, clusters,
+    /// components.
+    pub stages: Vec<StageRow>,
     /// The paper's table for this preset, if it is one of KC-1, KC-2, KC-3.
     pub paper: Option<&'static PaperTable>,
 }

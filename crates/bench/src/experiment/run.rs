@@ -11,11 +11,14 @@ use rayon::prelude::*;
 
 use super::config::{Config, referenced};
 use super::discover::NullSpec;
-use super::report::{PresetScores, REPORT_FORMAT, Report, RunStats, ShapeReport, Skipped};
+use super::report::{
+    CLUSTER_RADIUS, KEYPOINT_RADIUS, PresetScores, REPORT_FORMAT, Report, RunStats, ShapeReport,
+    Skipped,
+};
 use super::score::{preset_report, thresholds};
-use super::shape::{CacheUse, Job, LoadedNull, Outcome, Source};
+use super::shape::{CacheUse, Job, LoadedNull, Outcome, REMESHED_POSE_DENSITY, Source};
 use crate::error::BenchError;
-use crate::evaluate::best_overlaps;
+use crate::evaluate::{best_overlaps, share_within, within};
 use crate::transform::MAX_STRENGTH;
 
 /// Progress of a run, reported after each shape.
@@ -81,6 +84,30 @@ pub fn run(
                 }
             }
         }
+        if config.remeshed_isometry {
+            for pose in &null.spec.poses {
+                if config.strengths.contains(&pose.strength) {
+                    jobs.push(Job {
+                        null: i,
+                        source: Source::Remeshed {
+                            strength: pose.strength,
+                            pose: Some(pose.path.clone()),
+                        },
+                    });
+                }
+            }
+        }
+        if config.retessellation {
+            for &s in &config.strengths {
+                jobs.push(Job {
+                    null: i,
+                    source: Source::Remeshed {
+                        strength: s,
+                        pose: None,
+                    },
+                });
+            }
+        }
         for &kind in &config.kinds {
             for &s in &config.strengths {
                 jobs.push(Job {
@@ -119,11 +146,43 @@ pub fn run(
 
     // the null shapes' components, per null and preset
     let mut null_components: Vec<Option<&Vec<Vec<Vec<VertexId>>>>> = vec![None; loaded.len()];
+    let mut null_outcome: Vec<Option<&Outcome>> = vec![None; loaded.len()];
     for (job, out) in jobs.iter().zip(&outcomes) {
         if let (Source::Null, Ok(o)) = (&job.source, out) {
             null_components[job.null] = Some(&o.components);
+            null_outcome[job.null] = Some(o);
         }
     }
+    // per null: its vertices near its keypoints, and per preset its clusters' regions
+    let unit = |null: &LoadedNull| null.areas.iter().sum::<f64>().sqrt();
+    let regions = |null: &LoadedNull, keys: &[VertexId]| {
+        within(
+            &null.mesh.positions,
+            &null.topo,
+            keys,
+            CLUSTER_RADIUS * unit(null),
+        )
+    };
+    let null_stages: Vec<Option<(Vec<VertexId>, Vec<Vec<Vec<VertexId>>>)>> = loaded
+        .iter()
+        .zip(&null_outcome)
+        .map(|(null, o)| {
+            o.map(|o| {
+                let near = within(
+                    &null.mesh.positions,
+                    &null.topo,
+                    &o.keypoints_on_null,
+                    KEYPOINT_RADIUS * unit(null),
+                );
+                let clusters = o
+                    .clusters
+                    .iter()
+                    .map(|per| per.iter().map(|k| regions(null, k)).collect())
+                    .collect();
+                (near, clusters)
+            })
+        })
+        .collect();
     let mut stats = RunStats::default();
     let mut shapes = Vec::new();
     let mut skipped = Vec::new();
@@ -156,6 +215,8 @@ pub fn run(
         }
         stats.cache_write_errors.extend(o.cache_error.clone());
         stats.shape_seconds += o.seconds;
+        let is_null = matches!(job.source, Source::Null);
+        let stage = null_stages[job.null].as_ref().filter(|_| !is_null);
         let presets = o
             .components
             .iter()
@@ -166,19 +227,38 @@ pub fn run(
                     (Source::Null, _) | (_, None) => Vec::new(),
                     (_, Some(nc)) => best_overlaps(&nc[p], comps, &null.areas),
                 },
+                cluster_overlaps: match (stage, o.clusters.get(p)) {
+                    (Some((_, null_clusters)), Some(keys)) if !keys.is_empty() => {
+                        let mine: Vec<Vec<VertexId>> =
+                            keys.iter().map(|k| regions(null, k)).collect();
+                        best_overlaps(&null_clusters[p], &mine, &null.areas)
+                    }
+                    _ => Vec::new(),
+                },
             })
             .collect();
+        let keypoint_share = stage.and_then(|(near, _)| share_within(near, &o.keypoints_on_null));
         shapes.push(ShapeReport {
             null: null.spec.name.clone(),
             kind: job.kind().to_owned(),
             strength: job.strength(),
             source: match &job.source {
                 Source::Pose(_, p) => p.display().to_string(),
+                Source::Remeshed { strength, pose } => {
+                    let (original, density) = match pose {
+                        Some(p) => (p.as_path(), REMESHED_POSE_DENSITY),
+                        None => (null.spec.path.as_path(), *strength),
+                    };
+                    config
+                        .remeshed_file(original, density)
+                        .map_or_else(String::new, |f| f.display().to_string())
+                }
                 _ => null.spec.path.display().to_string(),
             },
             vertices: o.vertices,
             faces: o.faces,
             keypoints: o.keypoints,
+            keypoint_share,
             presets,
         });
     }

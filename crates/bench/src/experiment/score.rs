@@ -3,13 +3,14 @@
 //! overlap 0.8, component counts) and the repeatability-vs-overlap curves (Figs. 7–9).
 
 use crate::evaluate::{
-    CumulativeTable, Record, TableRow, mean_overlap_table, repeatability_curve, repeatability_table,
+    CumulativeTable, Record, TableRow, average_row, mean_overlap_table, repeatability_curve,
+    repeatability_table,
 };
 use crate::paper::{paper_table, row_label, row_order};
 use crate::transform::MAX_STRENGTH;
 
 use super::config::PresetSpec;
-use super::report::{CurveReport, PresetReport, ShapeReport};
+use super::report::{CurveReport, PresetReport, ShapeReport, StageRow};
 
 /// The overlap thresholds of the curves: 0, 0.05, …, 1.
 pub fn thresholds() -> Vec<f64> {
@@ -78,7 +79,41 @@ pub(super) fn preset_report(
             }
         })
         .collect();
+    let stages = mean_overlap
+        .rows
+        .iter()
+        .map(|row| {
+            let of = |s: &&ShapeReport| s.kind == row.kind;
+            let mean =
+                |v: Vec<f64>| (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64);
+            StageRow {
+                kind: row.kind.clone(),
+                keypoints: mean(
+                    shapes
+                        .iter()
+                        .filter(of)
+                        .filter_map(|s| s.keypoint_share)
+                        .collect(),
+                ),
+                clusters: mean(
+                    shapes
+                        .iter()
+                        .filter(of)
+                        .flat_map(|s| s.presets[p].cluster_overlaps.iter().copied())
+                        .collect(),
+                ),
+                components: mean(
+                    shapes
+                        .iter()
+                        .filter(of)
+                        .flat_map(|s| s.presets[p].best_overlaps.iter().copied())
+                        .collect(),
+                ),
+            }
+        })
+        .collect();
     PresetReport {
+        stages,
         preset: spec.clone(),
         mean_overlap,
         mean_overlap_per_strength,
@@ -109,11 +144,6 @@ pub(super) fn per_strength_table(records: &[Record], layout: &CumulativeTable) -
                 .collect(),
         })
         .collect();
-    let average = (0..usize::from(MAX_STRENGTH))
-        .map(|c| {
-            let present: Vec<f64> = rows.iter().filter_map(|r| r.values[c]).collect();
-            mean(&present)
-        })
-        .collect();
+    let average = average_row(&rows, usize::from(MAX_STRENGTH));
     CumulativeTable { rows, average }
 }

@@ -26,7 +26,22 @@ pub(super) enum Source {
     Null,
     Generated(Kind, u8),
     Pose(u8, PathBuf),
+    /// An independent re-tessellation (`Config::remeshed`): of the null shape at density
+    /// `strength` ([`RETESSELLATION`]), or of the pose of that strength at density
+    /// [`REMESHED_POSE_DENSITY`] ([`ISOMETRY_REMESHED`]; the pose's file is given).
+    Remeshed {
+        strength: u8,
+        pose: Option<PathBuf>,
+    },
 }
+
+/// The row of the null shapes re-tessellated at densities 1–5.
+pub const RETESSELLATION: &str = "retessellation";
+/// The row of the real poses, each re-tessellated.
+pub const ISOMETRY_REMESHED: &str = "isometry-remeshed";
+/// The density (strength of [`RETESSELLATION`]) the poses of [`ISOMETRY_REMESHED`] are
+/// re-tessellated at: the middle one, about 9,500 vertices per shape.
+pub const REMESHED_POSE_DENSITY: u8 = 3;
 
 pub(super) struct Job {
     pub(super) null: usize,
@@ -39,12 +54,16 @@ impl Job {
             Source::Null => "null",
             Source::Generated(k, _) => k.name(),
             Source::Pose(..) => ISOMETRY,
+            Source::Remeshed { pose: None, .. } => RETESSELLATION,
+            Source::Remeshed { pose: Some(_), .. } => ISOMETRY_REMESHED,
         }
     }
     pub(super) fn strength(&self) -> u8 {
         match &self.source {
             Source::Null => 0,
-            Source::Generated(_, s) | Source::Pose(s, _) => *s,
+            Source::Generated(_, s) | Source::Pose(s, _) | Source::Remeshed { strength: s, .. } => {
+                *s
+            }
         }
     }
 }
@@ -98,6 +117,11 @@ pub(super) struct Outcome {
     pub(super) seconds: f64,
     /// Per preset: the components as null-vertex sets (carried, for transformed shapes).
     pub(super) components: Vec<Vec<Vec<VertexId>>>,
+    /// Per preset: each component's cluster, its keypoints carried to null vertices.
+    pub(super) clusters: Vec<Vec<Vec<VertexId>>>,
+    /// The keypoints carried to null vertices (a keypoint whose vertex has no image is left
+    /// out).
+    pub(super) keypoints_on_null: Vec<VertexId>,
 }
 
 impl Config {
@@ -181,6 +205,33 @@ impl Config {
                 let identity = (0..m.num_vertices() as VertexId).map(Some).collect();
                 (Cow::Owned(m), Some(identity))
             }
+            Source::Remeshed { strength, pose } => {
+                let (original, density) = match pose {
+                    None => (null.spec.path.as_path(), *strength),
+                    Some(p) => (p.as_path(), REMESHED_POSE_DENSITY),
+                };
+                let file = self.remeshed_file(original, density).ok_or_else(|| {
+                    "no --remeshed folder given (scripts/retessellate.py makes one)".to_string()
+                })?;
+                let m = read_mesh(&file)
+                    .map_err(|e| format!("{e} (scripts/retessellate.py makes the copies)"))?
+                    .mesh;
+                // each remeshed vertex stands for the nearest vertex of the mesh it was made
+                // from, which (a pose's vertices numbered as the null's) is a null vertex
+                let reference = match pose {
+                    None => Cow::Borrowed(&null.mesh),
+                    Some(p) => Cow::Owned(read_mesh(p).map_err(|e| e.to_string())?.mesh),
+                };
+                if reference.num_vertices() != null.mesh.num_vertices() {
+                    return Err(format!(
+                        "{}: not the null shape's vertex numbering, so no ground truth",
+                        original.display()
+                    ));
+                }
+                let map = keycomp_surface::nearest_vertices(&m.positions, &reference.positions)
+                    .map(|near| near.into_iter().map(Some).collect());
+                (Cow::Owned(m), map)
+            }
         };
         let wants = |kc: bool| self.presets.iter().any(|p| (p.method == Method::Kc) == kc);
         // key-components on the canonical surface when asked, carried back to `mesh`
@@ -211,19 +262,47 @@ impl Config {
         };
         let extractor = embedded.as_ref().map(|_| Extractor::new(detected));
         let vertex_area = mser.as_ref().map(|_| vertex_areas(&mesh));
+        // a detected vertex -> the nearest vertex of `mesh` (the identity without a surface)
+        let to_mesh = |ids: &[VertexId]| -> Vec<VertexId> {
+            match &surface {
+                Some(s) => {
+                    let points: Vec<_> = ids
+                        .iter()
+                        .filter_map(|&v| s.positions.get(v as usize).copied())
+                        .collect();
+                    keycomp_surface::nearest_vertices(&points, &mesh.positions).unwrap_or_default()
+                }
+                None => ids.to_vec(),
+            }
+        };
+        let to_null = |ids: Vec<VertexId>| -> Vec<VertexId> {
+            match &map {
+                Some(map) => ids
+                    .into_iter()
+                    .filter_map(|v| map.get(v as usize).copied().flatten())
+                    .collect(),
+                None => ids,
+            }
+        };
         let mut components = Vec::with_capacity(self.presets.len());
+        let mut clusters = Vec::with_capacity(self.presets.len());
         for p in &self.presets {
-            let comps = match (p.method, &embedded, &extractor, &mser, &vertex_area) {
+            let (comps, keys) = match (p.method, &embedded, &extractor, &mser, &vertex_area) {
                 (Method::Kc, Some(e), Some(x), _, _) => {
                     let found = x
                         .components(e, &p.cluster, p.sigma, p.sphere)
                         .map_err(|e| format!("{}: component extraction failed: {e}", p.name))?;
-                    match &carrier {
-                        Some(carrier) => found.iter().map(|c| carrier.carry(c)).collect(),
-                        None => found,
-                    }
+                    let keys = found
+                        .iter()
+                        .map(|c| to_null(to_mesh(&c.keypoints)))
+                        .collect();
+                    let comps = match &carrier {
+                        Some(carrier) => found.iter().map(|c| carrier.carry(&c.vertices)).collect(),
+                        None => found.into_iter().map(|c| c.vertices).collect(),
+                    };
+                    (comps, keys)
                 }
-                (Method::Mser, _, _, Some(m), _) => m.components.clone(),
+                (Method::Mser, _, _, Some(m), _) => (m.components.clone(), Vec::new()),
                 (Method::MserKc, _, _, Some(m), Some(va)) => {
                     let areas: Vec<f64> = m
                         .components
@@ -232,16 +311,18 @@ impl Config {
                         .collect();
                     let (chosen, _) = covering_set(&m.components, &areas, &m.keypoints)
                         .map_err(|e| format!("{}: {e}", p.name))?;
-                    chosen.iter().map(|&i| m.components[i].clone()).collect()
+                    let comps = chosen.iter().map(|&i| m.components[i].clone()).collect();
+                    (comps, Vec::new())
                 }
                 _ => return Err(format!("{}: internal error: stage missing", p.name)),
             };
             components.push(comps);
+            clusters.push(keys);
         }
-        let keypoints = match (&embedded, &mser) {
-            (Some(e), _) => e.keypoints.len(),
-            (None, Some(m)) => m.keypoints.len(),
-            (None, None) => 0,
+        let (keypoints, keypoints_on_null) = match (&embedded, &mser) {
+            (Some(e), _) => (e.keypoints.len(), to_null(to_mesh(&e.keypoints))),
+            (None, Some(m)) => (m.keypoints.len(), to_null(m.keypoints.clone())),
+            (None, None) => (0, Vec::new()),
         };
         if let Some(map) = map {
             let pullback =
@@ -260,6 +341,8 @@ impl Config {
             cache_error,
             seconds: t0.elapsed().as_secs_f64(),
             components,
+            clusters,
+            keypoints_on_null,
         })
     }
 }

@@ -54,7 +54,79 @@ fn config(kinds: Vec<Kind>, strengths: Vec<u8>, cache: Option<EmbeddingCache>) -
         cache,
         parallel_shapes: true,
         surface: None,
+        remeshed: None,
+        retessellation: false,
+        remeshed_isometry: false,
     }
+}
+
+/// The re-tessellation rows read their copies from the remeshed folder, mapped by nearest
+/// vertex; a copy that is the shape itself repeats everything exactly (overlaps 1, every
+/// keypoint and cluster in place), a rotated pose too. A missing folder is a skip with its
+/// reason, not an error.
+#[test]
+fn remeshed_copies_are_read_and_mapped_by_nearest_vertex() {
+    let dir = tempfile::tempdir().unwrap();
+    let tosca = dir.path().join("data/tosca");
+    std::fs::create_dir_all(&tosca).unwrap();
+    let mesh = synth::textured_protrusion_sphere(5);
+    write_off(&mesh, &tosca.join("blob0.off")).unwrap();
+    // a pose: the same vertices turned a quarter about z
+    let turned = keycomp_mesh::Mesh {
+        positions: mesh
+            .positions
+            .iter()
+            .map(|p| keycomp_mesh::Point3::new(-p.y, p.x, p.z))
+            .collect(),
+        faces: mesh.faces.clone(),
+    };
+    write_off(&turned, &tosca.join("blob1.off")).unwrap();
+    let remeshed = dir.path().join("remeshed");
+    for s in 1..=5 {
+        let d = remeshed.join(format!("s{s}/tosca"));
+        std::fs::create_dir_all(&d).unwrap();
+        write_off(&mesh, &d.join("blob0.off")).unwrap();
+        write_off(&turned, &d.join("blob1.off")).unwrap();
+    }
+    let nulls = discover(&dir.path().join("data")).unwrap();
+    let cfg = Config {
+        remeshed: Some(remeshed),
+        retessellation: true,
+        remeshed_isometry: true,
+        isometry: false,
+        ..config(Vec::new(), vec![1, 3], None)
+    };
+    let (report, _) = run(&cfg, &nulls, &|_| {}).unwrap();
+    assert!(report.skipped.is_empty(), "{:?}", report.skipped);
+    let kinds: Vec<&str> = report.shapes.iter().map(|s| s.kind.as_str()).collect();
+    assert_eq!(
+        kinds,
+        [
+            "null",
+            "isometry-remeshed",
+            "retessellation",
+            "retessellation"
+        ]
+    );
+    for pr in &report.presets[..2] {
+        for row in &pr.stages {
+            assert_eq!(row.keypoints, Some(1.0), "{} {}", pr.preset.name, row.kind);
+            assert_eq!(row.clusters, Some(1.0), "{} {}", pr.preset.name, row.kind);
+            assert_eq!(row.components, Some(1.0), "{} {}", pr.preset.name, row.kind);
+        }
+        // the extra rows stay out of the average, which has none of the paper's rows here:
+        // then every row counts
+        assert_eq!(pr.mean_overlap.average[0], Some(1.0));
+    }
+    assert!(report.shapes[2].source.ends_with("s1/tosca/blob0.off"));
+    // without the folder's copies: skipped, with the script to run
+    let empty = Config {
+        remeshed: Some(dir.path().join("nowhere")),
+        ..cfg
+    };
+    let (report, _) = run(&empty, &nulls, &|_| {}).unwrap();
+    assert_eq!(report.skipped.len(), 3);
+    assert!(report.skipped[0].reason.contains("retessellate.py"));
 }
 
 #[test]

@@ -12,7 +12,8 @@ use keycomp::options::DetectOptions;
 use keycomp_bench::Kind;
 use keycomp_bench::cache::EmbeddingCache;
 use keycomp_bench::experiment::{
-    Budget, Config, ISOMETRY, PresetSpec, Progress, Report, RunStats, discover, run,
+    Budget, Config, ISOMETRY, ISOMETRY_REMESHED, PresetSpec, Progress, RETESSELLATION, Report,
+    RunStats, discover, run,
 };
 use keycomp_bench::svg::{Curve, repeatability_svg};
 use keycomp_components::{Preset, SmacofParams, SphereRule};
@@ -102,12 +103,19 @@ pub struct Args {
     #[arg(long, value_name = "N")]
     pub smoothing: Option<usize>,
     /// Transformations, comma-separated: isometry, holes, microholes, noise, shotnoise, scale,
-    /// localscale, topology, sampling [default: all].
+    /// localscale, topology, sampling, and with --remeshed retessellation and
+    /// isometry-remeshed [default: all].
     #[arg(long, value_delimiter = ',', value_parser = parse_kind, value_name = "KINDS")]
     pub kinds: Vec<KindChoice>,
     /// Strengths, comma-separated, each 1..5 [default: 1,2,3,4,5].
     #[arg(long, value_delimiter = ',', value_parser = clap::value_parser!(u8).range(1..=5), value_name = "S")]
     pub strengths: Vec<u8>,
+    /// Independent re-tessellations of the null shapes and poses, as written by
+    /// `scripts/retessellate.py` (MeshLab's isotropic remeshing at five densities): adds the
+    /// rows retessellation (each null shape remeshed, strength = density, finest first) and
+    /// isometry-remeshed (each real pose remeshed at the middle density).
+    #[arg(long, value_name = "DIR")]
+    pub remeshed: Option<PathBuf>,
     /// Seed of the generated transformations.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -171,6 +179,10 @@ fn parse_sphere(s: &str) -> Result<SphereRule, String> {
 pub enum KindChoice {
     /// Real poses.
     Isometry,
+    /// The null shapes re-tessellated (`--remeshed`).
+    Retessellation,
+    /// The real poses re-tessellated (`--remeshed`).
+    IsometryRemeshed,
     /// A generated kind.
     Generated(Kind),
 }
@@ -179,10 +191,16 @@ fn parse_kind(s: &str) -> Result<KindChoice, String> {
     if s.trim().eq_ignore_ascii_case(ISOMETRY) {
         return Ok(KindChoice::Isometry);
     }
+    if s.trim().eq_ignore_ascii_case(RETESSELLATION) {
+        return Ok(KindChoice::Retessellation);
+    }
+    if s.trim().eq_ignore_ascii_case(ISOMETRY_REMESHED) {
+        return Ok(KindChoice::IsometryRemeshed);
+    }
     s.parse::<Kind>().map(KindChoice::Generated).map_err(|_| {
         format!(
             "unknown transformation '{s}': use isometry, holes, microholes, noise, shotnoise, \
-                 scale, localscale, topology or sampling"
+                 scale, localscale, topology, sampling, retessellation or isometry-remeshed"
         )
     })
 }
@@ -255,6 +273,15 @@ impl Args {
         } else {
             Budget::PerShape(harris.selection)
         };
+        let remeshed = self.remeshed.is_some();
+        let (retessellation, remeshed_isometry) = if self.kinds.is_empty() {
+            (remeshed, remeshed)
+        } else {
+            (
+                self.kinds.contains(&KindChoice::Retessellation),
+                self.kinds.contains(&KindChoice::IsometryRemeshed),
+            )
+        };
         let (kinds, isometry) = if self.kinds.is_empty() {
             (Kind::ALL.to_vec(), true)
         } else {
@@ -297,6 +324,9 @@ impl Args {
             cache,
             parallel_shapes: !self.sequential,
             surface,
+            remeshed: self.remeshed.clone(),
+            retessellation,
+            remeshed_isometry,
         }
     }
 }
@@ -354,6 +384,21 @@ pub fn run_cmd(args: Args) -> Result<ExitCode> {
         Some(args.cache.clone().unwrap_or_else(|| args.out.join("cache")))
     };
     let config = args.config(cache_dir.clone().map(EmbeddingCache::new));
+    if (config.retessellation || config.remeshed_isometry) && config.remeshed.is_none() {
+        anyhow::bail!(
+            "the rows retessellation and isometry-remeshed need --remeshed DIR, a folder of \
+             re-tessellations made by scripts/retessellate.py"
+        );
+    }
+    if let Some(dir) = &config.remeshed
+        && !dir.is_dir()
+    {
+        anyhow::bail!(
+            "{}: no such folder (scripts/retessellate.py --out {} makes it)",
+            dir.display(),
+            dir.display()
+        );
+    }
     config
         .harris
         .validate()
