@@ -21,6 +21,10 @@ use crate::error::BenchError;
 use crate::evaluate::{best_overlaps, share_within, within};
 use crate::transform::MAX_STRENGTH;
 
+/// A null shape's stage regions: its vertices near its keypoints, and per preset the regions of
+/// its clusters.
+type NullStages = (Vec<VertexId>, Vec<Vec<Vec<VertexId>>>);
+
 /// Progress of a run, reported after each shape.
 #[derive(Debug, Clone, Copy)]
 pub struct Progress<'a> {
@@ -163,7 +167,7 @@ pub fn run(
             CLUSTER_RADIUS * unit(null),
         )
     };
-    let null_stages: Vec<Option<(Vec<VertexId>, Vec<Vec<Vec<VertexId>>>)>> = loaded
+    let null_stages: Vec<Option<NullStages>> = loaded
         .iter()
         .zip(&null_outcome)
         .map(|(null, o)| {
