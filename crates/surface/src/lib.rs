@@ -5,8 +5,32 @@
 //! tessellation, and a triangle soup (a CAD model made of intersecting, separately modelled
 //! pieces, with faces hidden inside the solid and inconsistent orientation) has no connected
 //! surface for geodesics to run on. So every input — a mesh at any resolution, a soup, a range
-//! scan, a bare point cloud — is first turned into one surface of a fixed density relative to
-//! its own size, and only that surface is analysed:
+//! scan, a bare point cloud — is first remade as an **isotropic remesh lying on its own
+//! geometry**: nearly equilateral triangles of one edge length L, fixed per unit of the area
+//! of the shape the input stands for ([`Density`]), whose vertices lie on the input. Two
+//! copies of a shape with different triangles then become two samplings of the same density
+//! of the same surface, and only that surface is analysed.
+//!
+//! **A clean mesh** — edge- and vertex-manifold, consistently oriented, its pieces apart from
+//! each other (no two within L/4; pieces under [`SurfaceParams::min_piece`] of the area are
+//! left out as specks) — is remeshed directly ([`remesh`]: splits, collapses, flips and
+//! tangential relaxation after Botsch & Kobbelt 2004, every vertex projected onto the input's
+//! faces, boundary vertices onto its boundary edges), after its holes shorter than
+//! [`HOLE_PERIMETER`]·L around are closed (below the surface's resolution; a mesh's micro-holes
+//! would otherwise make borders where the shape has none). The result keeps the input's
+//! topology: no webs across gaps, no lost thin parts, real holes and borders kept.
+//!
+//! **Anything else** — a soup, a mesh whose pieces touch or cross, a range scan's triangulated
+//! grid with specks, a bare point cloud — is reconstructed from an offset volume (steps 1–5
+//! below), which joins the pieces into one surface and drops hidden faces, and that
+//! reconstruction is analysed as it is made ([`Surface::reconstructed`]): its surface-nets
+//! triangles are already close to equilateral and of one size, and its vertices already lie on
+//! the input. It is not remeshed: projected onto the input, the two sides of a thin panel fall
+//! onto one another, and projected onto itself the remesh measured no better on CAD soups.
+//!
+//! L is chosen so that the result has about [`SurfaceParams::vertices`] vertices for a whole
+//! shape: equilateral triangles of side L, two per vertex, cover an area A when
+//! L² = 2A / (√3·N). The reconstruction:
 //!
 //! 1. **Oriented samples** ([`mod@sample`], [`normals`]). A mesh is sampled on a regular
 //!    barycentric lattice of spacing h/2 on every face, each sample carrying its face's
@@ -41,21 +65,26 @@
 //!    points, those faces are dropped). The surface keeps the nets' even sampling and
 //!    connectivity, and the input's geometry instead of an offset r outside it.
 //!
-//! h is chosen so that the result has about [`SurfaceParams::vertices`] vertices: from the
-//! input's area (a point cloud's from its point spacing), then once more from the area of the
-//! surface made when the first estimate missed by more than 15 % (a soup's hidden faces count
-//! in its area but not in its outer surface). The grid is bounded by [`MAX_NODES`] nodes: an
-//! input whose extent is huge for its area gets a coarser spacing instead of an unbounded
-//! allocation.
+//! The reconstruction's grid spacing h is chosen so that it has about as many vertices as a
+//! remesh would: from the input's area (a point cloud's from its point spacing), then once more
+//! from the area of the surface made when the first estimate missed by more than 15 % (a
+//! soup's hidden faces count in its area but not in its outer surface). The grid is bounded by
+//! [`MAX_NODES`] nodes: an input whose extent is huge for its area gets a coarser spacing
+//! instead of an unbounded allocation. Remeshing makes at most 16 times the target's vertex
+//! count in faces beyond its start's ([`remesh::RemeshParams::max_faces`]).
 //!
-//! Cost: O(S·(R/h)³) for S samples (about 8·A/h², so O(V) for a budget of V vertices), the
-//! flood fill and the nets in O(grid nodes), the trimming in O(V log S). Everything is
-//! deterministic: no random numbers, and parallel loops write disjoint slices.
+//! Cost: the remesh O(R·V·d) for [`REMESH_ROUNDS`] rounds over V vertices of degree d, plus a
+//! nearest-point query per vertex and round ([`closest`], O(log F)); the reconstruction
+//! O(S·(R/h)³) for S samples (about 8·A/h², so O(V) for a budget of V vertices), the flood fill
+//! and the nets in O(grid nodes), the trimming in O(V log S). Everything is deterministic: no
+//! random numbers, and parallel loops write disjoint slices.
 
+pub mod closest;
 mod error;
 pub mod nets;
 pub mod normals;
 pub mod orient;
+pub mod remesh;
 pub mod sample;
 pub mod trim;
 pub mod volume;
@@ -65,6 +94,7 @@ pub use trim::nearest_vertices;
 pub use volume::MAX_NODES;
 
 use keycomp_mesh::{Mesh, Point3, Vector3, geometry};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// Surface-nets vertices per unit of area and squared spacing: a surface of area A on a grid
@@ -163,6 +193,9 @@ pub struct Surface {
     pub trimmed_faces: usize,
     /// Faces left out with pieces under [`SurfaceParams::min_piece`].
     pub dropped_faces: usize,
+    /// Whether it was reconstructed from an offset volume (a soup, a point cloud, a mesh whose
+    /// pieces are not clean and apart), rather than remeshed on the input's own faces.
+    pub reconstructed: bool,
 }
 
 /// How densely a canonical surface is sampled: always relative to the area of the shape the
@@ -232,6 +265,226 @@ pub fn canonical_at(
 ) -> Result<Surface, SurfaceError> {
     params.validate()?;
     density.validate()?;
+    if let Input::Mesh(mesh) = input
+        && let Some(surface) = remeshed_directly(mesh, params, density)?
+    {
+        return Ok(surface);
+    }
+    reconstruction(input, params, density)
+}
+
+/// Rounds of [`remesh::remesh`] of a canonical surface.
+pub const REMESH_ROUNDS: usize = 8;
+
+/// The most faces remeshing may make for `target` vertices from a start of `faces` faces
+/// ([`remesh::RemeshParams::max_faces`]): eight times the target's faces beyond the start's.
+fn max_faces(target: f64, faces: usize) -> usize {
+    faces + (16.0 * target) as usize
+}
+
+/// The target edge length for about `target` vertices on a surface of `area`: equilateral
+/// triangles of side L, two per vertex, cover `area` when L² = 2·area / (√3·target).
+fn edge_for(area: f64, target: f64) -> f64 {
+    (2.0 * area / (3f64.sqrt() * target)).sqrt()
+}
+
+/// A clean mesh (edge- and vertex-manifold, consistently oriented, its pieces apart once
+/// those under [`SurfaceParams::min_piece`] of the area are left out) remeshed on its own
+/// faces; `None` for any other mesh.
+fn remeshed_directly(
+    mesh: &Mesh,
+    params: &SurfaceParams,
+    density: Density,
+) -> Result<Option<Surface>, SurfaceError> {
+    let area = geometry::total_area(mesh);
+    if !(area.is_finite() && area > 0.0) {
+        return Err(SurfaceError::NoArea);
+    }
+    let frame = Frame::of(mesh, area);
+    let mesh = frame.entered(mesh);
+    let target = density.target(area, params);
+    let l = edge_for(1.0, target);
+    let Some((start, dropped)) = apart_pieces(&mesh, params.min_piece, 0.25 * l) else {
+        return Ok(None);
+    };
+    let start = fill_small_holes(&start, HOLE_PERIMETER * l);
+    let closest = closest::ClosestPoint::new(&start);
+    let remeshed = remesh::remesh(
+        &start,
+        &remesh::RemeshParams {
+            edge: l,
+            iterations: REMESH_ROUNDS,
+            boundary_on_input: true,
+            max_projection: f64::INFINITY,
+            max_faces: max_faces(target, start.faces.len()),
+        },
+        &closest,
+    );
+    Ok(remeshed.ok().map(|m| Surface {
+        mesh: frame.left(m),
+        spacing: l * frame.unit,
+        offset: 0.0,
+        trimmed_faces: 0,
+        dropped_faces: dropped,
+        reconstructed: false,
+    }))
+}
+
+/// The frame a surface is remeshed in: the lowest corner of the input's bounding box at the
+/// origin, its area 1, coordinates rounded to a step of 2⁻²⁸. A scaled and moved copy of the
+/// input lands on the same coordinates (but for the rare one within rounding of a step), so
+/// remeshing makes the same choices and the copy gets the same surface, scaled and moved.
+#[derive(Debug, Clone, Copy)]
+struct Frame {
+    origin: Point3<f64>,
+    /// The input's length unit: the square root of its area.
+    unit: f64,
+}
+
+impl Frame {
+    /// Coordinates in the frame are multiples of this.
+    const STEP: f64 = 1.0 / (1u64 << 28) as f64;
+
+    fn of(mesh: &Mesh, area: f64) -> Frame {
+        Frame {
+            origin: geometry::bounding_box(mesh).min,
+            unit: area.sqrt(),
+        }
+    }
+
+    /// `mesh` in the frame: moved to the origin, scaled to unit area, coordinates quantised.
+    fn entered(self, mesh: &Mesh) -> Mesh {
+        let q = |x: f64| (x / Self::STEP).round() * Self::STEP;
+        Mesh {
+            positions: mesh
+                .positions
+                .iter()
+                .map(|p| ((p - self.origin) / self.unit).map(q).into())
+                .collect(),
+            faces: mesh.faces.clone(),
+        }
+    }
+
+    /// `mesh` back from the frame to the input's coordinates.
+    fn left(self, mut mesh: Mesh) -> Mesh {
+        for p in &mut mesh.positions {
+            *p = self.origin + p.coords * self.unit;
+        }
+        mesh
+    }
+}
+
+/// Holes whose boundary is shorter than this many target edge lengths (about two edges
+/// across, below the surface's resolution) are closed before a clean mesh is remeshed.
+pub const HOLE_PERIMETER: f64 = 6.0;
+
+/// `mesh` (edge- and vertex-manifold, consistently oriented) with every hole whose boundary
+/// loop is shorter than `max_perimeter` closed by a fan of triangles around a new vertex at the
+/// loop's centroid.
+fn fill_small_holes(mesh: &Mesh, max_perimeter: f64) -> Mesh {
+    // the hole side of a boundary edge (a, b) of a face is (b, a); each boundary vertex of a
+    // vertex-manifold mesh starts one such edge
+    let mut directed: Vec<(u32, u32)> = mesh
+        .faces
+        .iter()
+        .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+        .collect();
+    directed.sort_unstable();
+    let mut hole_next: std::collections::BTreeMap<u32, u32> = Default::default();
+    for &(a, b) in &directed {
+        if directed.binary_search(&(b, a)).is_err() {
+            hole_next.insert(b, a);
+        }
+    }
+    let mut out = mesh.clone();
+    let mut done: std::collections::BTreeSet<u32> = Default::default();
+    for &start in hole_next.keys() {
+        if done.contains(&start) {
+            continue;
+        }
+        let mut lp = vec![start];
+        let mut v = start;
+        while let Some(&n) = hole_next.get(&v) {
+            if n == start || lp.len() > hole_next.len() {
+                break;
+            }
+            lp.push(n);
+            v = n;
+        }
+        done.extend(lp.iter().copied());
+        let p = |v: u32| mesh.positions[v as usize];
+        let perimeter: f64 = (0..lp.len())
+            .map(|i| (p(lp[(i + 1) % lp.len()]) - p(lp[i])).norm())
+            .sum();
+        if lp.len() < 3 || perimeter >= max_perimeter {
+            continue;
+        }
+        let c = lp.iter().fold(Vector3::zeros(), |s, &v| s + p(v).coords) / lp.len() as f64;
+        let centre = out.positions.len() as u32;
+        out.positions.push(Point3::from(c));
+        for i in 0..lp.len() {
+            out.faces.push([lp[i], lp[(i + 1) % lp.len()], centre]);
+        }
+    }
+    out
+}
+
+/// `mesh` without its specks (pieces under `min_piece` of the area, with the faces left out)
+/// when its other pieces lie apart, none within `gap` of another (a cut-off limb, separate
+/// closed parts), as samples `gap` apart on each piece tell; `None` when two pieces touch or
+/// cross (a soup of overlapping parts, which a reconstruction joins into one surface), or
+/// when the samples would be too many.
+fn apart_pieces(mesh: &Mesh, min_piece: f64, gap: f64) -> Option<(Mesh, usize)> {
+    let topo = keycomp_mesh::Topology::new(mesh);
+    let (label, _) = topo.connected_components();
+    let areas = geometry::face_areas(mesh);
+    let total: f64 = areas.iter().sum();
+    let mut piece_area: std::collections::BTreeMap<u32, f64> = Default::default();
+    for (f, t) in mesh.faces.iter().enumerate() {
+        *piece_area.entry(label[t[0] as usize]).or_default() += areas[f];
+    }
+    let kept = |l: u32| piece_area.get(&l).is_some_and(|&a| a >= min_piece * total);
+    let faces: Vec<[u32; 3]> = mesh
+        .faces
+        .iter()
+        .copied()
+        .filter(|t| kept(label[t[0] as usize]))
+        .collect();
+    let dropped = mesh.faces.len() - faces.len();
+    let out = Mesh {
+        positions: mesh.positions.clone(),
+        faces,
+    };
+    if piece_area.keys().filter(|&&l| kept(l)).count() > 1 {
+        // samples every `gap` on each piece: where two pieces cross or touch, one of them lies
+        // within `gap` of the other piece
+        let face_piece: Vec<u32> = out.faces.iter().map(|t| label[t[0] as usize]).collect();
+        let closest = closest::ClosestPoint::new(&out);
+        let samples = sample::lattice(&out, &vec![false; out.faces.len()], gap).ok()?;
+        let touching = samples
+            .positions
+            .par_iter()
+            .zip(&samples.faces)
+            .any(|(p, &f)| {
+                let own = face_piece[f as usize];
+                closest
+                    .nearest_among(p, gap, |g| face_piece[g as usize] != own)
+                    .is_some()
+            });
+        if touching {
+            return None;
+        }
+    }
+    Some((out, dropped))
+}
+
+/// The offset-volume reconstruction of `input` (steps 1–5 of the module docs), its spacing
+/// corrected from the area it made.
+fn reconstruction(
+    input: Input,
+    params: &SurfaceParams,
+    density: Density,
+) -> Result<Surface, SurfaceError> {
     let (first_area, bbox, orientation, cloud) = match input {
         Input::Mesh(mesh) => {
             let area = geometry::total_area(mesh);
@@ -356,6 +609,7 @@ fn build(
         offset: r,
         trimmed_faces: removed + overhang,
         dropped_faces: dropped,
+        reconstructed: true,
     })
 }
 

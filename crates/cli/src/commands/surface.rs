@@ -44,6 +44,9 @@ struct Summary {
     faces: usize,
     boundary_vertices: usize,
     pieces: usize,
+    /// Whether the input was reconstructed from an offset volume before remeshing (a soup, a
+    /// cloud, pieces that touch), rather than remeshed on its own faces.
+    reconstructed: bool,
     area: f64,
     warnings: Vec<String>,
     out: String,
@@ -59,9 +62,9 @@ pub fn run(args: Args) -> Result<ExitCode> {
         Geometry::Mesh(m) => (m.num_vertices(), m.num_faces()),
         Geometry::Points(c) => (c.positions.len(), 0),
     };
-    let mesh = canonical_surface(&loaded.geometry, &params)
-        .with_context(|| format!("{}: no canonical surface", args.input.display()))?
-        .mesh;
+    let surface = canonical_surface(&loaded.geometry, &params)
+        .with_context(|| format!("{}: no canonical surface", args.input.display()))?;
+    let mesh = surface.mesh;
     write_off(&mesh, &args.out)?;
     let topo = Topology::new(&mesh);
     let summary = Summary {
@@ -72,6 +75,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
         faces: mesh.num_faces(),
         boundary_vertices: topo.boundary_vertices().len(),
         pieces: topo.connected_components().1,
+        reconstructed: surface.reconstructed,
         area: keycomp_mesh::geometry::total_area(&mesh),
         warnings: loaded.warnings,
         out: args.out.display().to_string(),
@@ -83,7 +87,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
         output::print_json(&summary)?;
     } else {
         output::print_text(&format!(
-            "{}: {} vertices, {} faces -> {}: {} vertices, {} faces, {} piece(s), {} boundary vertices\n",
+            "{}: {} vertices, {} faces -> {}: {} vertices, {} faces, {} piece(s), {} boundary vertices ({})\n",
             summary.input,
             summary.input_vertices,
             summary.input_faces,
@@ -91,7 +95,12 @@ pub fn run(args: Args) -> Result<ExitCode> {
             summary.vertices,
             summary.faces,
             summary.pieces,
-            summary.boundary_vertices
+            summary.boundary_vertices,
+            if summary.reconstructed {
+                "reconstructed, then remeshed"
+            } else {
+                "remeshed on its own faces"
+            }
         ))?;
     }
     Ok(ExitCode::SUCCESS)
