@@ -117,7 +117,7 @@ pub struct Found {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use keycomp_components::Preset;
+    use keycomp_components::{Grouping, Preset};
     use keycomp_mesh::synth;
 
     #[test]
@@ -131,10 +131,12 @@ mod tests {
         let mut total = 0;
         // N lowered to 10: the shape's 102 keypoints then form clusters under every preset
         // (at N = 20–30 whether any cluster reaches N depends on the embedding's local minimum)
-        // the robust preset's sphere rule on the same keypoints and embedding (its own Harris
-        // and SMACOF settings are stage 1's business)
+        // the robust preset's sphere rule on the same keypoints and embedding, under the paper's
+        // grouping (its own Harris and SMACOF settings are stage 1's business; its salient
+        // grouping is detected in one go, not in stages)
         let components = |preset: Preset| {
             let mut c = preset.component_params();
+            c.grouping = Grouping::Adaptive;
             c.cluster.n_min = 10;
             c.smacof = smacof.clone();
             c

@@ -41,8 +41,35 @@ pub struct DetectArgs {
     /// Seed of SMACOF's random starts [default: 0].
     #[arg(long, value_name = "S")]
     pub seed: Option<u64>,
+    /// How keypoints become key-components: salient (the robust preset's: prominent peaks of
+    /// the diffused Harris response, a geodesic disc around each) or adaptive (the paper's:
+    /// SMACOF, Algorithm 1, sphere-bounded growing) [default: the preset's].
+    #[arg(long, value_name = "MODE", value_parser = parse_grouping)]
+    pub grouping: Option<bool>,
+    /// Salient grouping: diffusion time of the response, in unit areas [default: 0.02].
+    #[arg(long, value_name = "T")]
+    pub saliency_time: Option<f64>,
+    /// Salient grouping: share of its height by which a peak's saddle must lie below it
+    /// [default: 0.4].
+    #[arg(long, value_name = "P")]
+    pub prominence: Option<f64>,
+    /// Salient grouping: geodesic radius of a component around its peak, in unit lengths
+    /// [default: 0.15].
+    #[arg(long, value_name = "R")]
+    pub component_radius: Option<f64>,
+    /// Salient grouping: the most components, highest peaks first [default: 12].
+    #[arg(long, value_name = "K", value_parser = crate::args::at_least_one)]
+    pub max_components: Option<usize>,
     #[command(flatten)]
     pub speed: SpeedArgs,
+}
+
+fn parse_grouping(s: &str) -> Result<bool, String> {
+    match s {
+        "salient" => Ok(true),
+        "adaptive" => Ok(false),
+        _ => Err(format!("unknown grouping '{s}' (salient or adaptive)")),
+    }
 }
 
 /// How the geodesic distances and the embedding are computed (deviations from the paper made
@@ -136,6 +163,13 @@ impl DetectArgs {
         self.preset.unwrap_or(keycomp::options::DEFAULT_PRESET)
     }
 
+    /// Whether the surface analysed, when `--surface` is not given, is the canonical one: yes
+    /// for the robust preset, no for the paper's presets, which select the surface the paper
+    /// used (the mesh as read; a point cloud still gets its canonical surface).
+    pub fn canonical_by_default(&self) -> bool {
+        !self.detection_preset().is_paper()
+    }
+
     /// The preset of the retrieval commands: the one given, else the default.
     pub fn retrieval_preset(&self) -> Preset {
         self.preset.unwrap_or(keycomp::options::DEFAULT_PRESET)
@@ -161,6 +195,11 @@ impl DetectArgs {
             n_reference: self.n_reference,
             sigma: self.sigma,
             seed: self.seed,
+            salient: self.grouping,
+            saliency_time: self.saliency_time,
+            prominence: self.prominence,
+            component_radius: self.component_radius,
+            max_components: self.max_components,
             ..self.speed.options()
         }
     }
@@ -266,8 +305,13 @@ pub struct SurfaceArgs {
 impl SurfaceArgs {
     /// `Some(true)`: canonical asked for; `Some(false)`: as read; `None`: not given.
     pub fn canonical(&self) -> Option<bool> {
-        self.surface.as_deref().map(|s| s == "canonical")
+        canonical_choice(self.surface.as_deref())
     }
+}
+
+/// A `--surface` value read: `Some(true)` canonical, `Some(false)` as read, `None` not given.
+pub fn canonical_choice(surface: Option<&str>) -> Option<bool> {
+    surface.map(|s| s == "canonical")
 }
 
 /// Parses a count that must be at least 1 (clap `value_parser` of `-k`, `--runs`, …).

@@ -80,6 +80,15 @@ pub enum ComponentsError {
         /// How many elements there are.
         len: usize,
     },
+    /// A computation the surface does not allow (no face of positive area, a factorisation
+    /// that fails).
+    #[error("{what} failed: {detail}")]
+    Degenerate {
+        /// The step that failed.
+        what: &'static str,
+        /// Why.
+        detail: String,
+    },
 }
 
 impl ComponentsError {

@@ -22,17 +22,19 @@ mod error;
 pub mod grow;
 pub mod params;
 pub mod pipeline;
+pub mod saliency;
 pub mod smacof;
 pub mod sphere;
 
 pub use cluster::{Cluster, ClusterParams, Clustering, adaptive_clustering};
 pub use error::ComponentsError;
 pub use grow::{Component, RegionGrower, geodesic_center};
-pub use params::{ComponentParams, Preset};
+pub use params::{ComponentParams, Grouping, Preset};
 pub use pipeline::{
     DetectError, DetectParams, Detection, Extracted, ExtractedComponent, GeodesicOptions,
     KeyComponent, Proxy, Timings, detect, detect_in, extract_components, geodesic_proxy,
     keypoint_distances,
 };
+pub use saliency::{SaliencyParams, Salient, prominent_peaks, salient_components};
 pub use smacof::{Embedding, SmacofParams, UpperTriangle, smacof, smacof_upper};
 pub use sphere::{Sphere, SphereRule, min_enclosing_sphere, spread_sphere};

@@ -12,25 +12,20 @@
 //!
 //! # The robust preset (not in the paper)
 //!
-//! [`Preset::Robust`] is KC-1's clustering (R 0.15, T 0.30, N 30, σ 1.5) with three changes
-//! that make components repeat under noise, shot noise and real poses
-//! ([`Preset::harris_params`] holds the first two):
-//! 1. Harris 3D on a copy of the mesh smoothed by 30 Taubin λ|μ pairs
-//!    (`HarrisParams::smoothing_iterations`), so noise does not make responses of its own;
-//! 2. 2 % of the vertices as keypoints instead of 1 %, so a feature's cluster holds about
-//!    twice N keypoints instead of about N and does not come and go with a few of them;
-//! 3. the growing sphere of [`SphereRule::Spread`] (factor 1.2): centred at the keypoints'
-//!    mean, radius from their RMS spread, instead of the smallest enclosing sphere.
+//! [`Preset::Robust`], the default analysis's preset, keeps the paper's idea (key-components
+//! are where Harris 3D responds most, grown on the surface) and changes every step that
+//! depends on the triangles rather than on the surface ([`Preset::harris_params`],
+//! [`Preset::component_params`]):
+//! 1. Harris 3D in lengths: neighbourhoods of [`Preset::ROBUST_HARRIS_RADIUS`] unit lengths,
+//!    on a copy smoothed over [`Preset::ROBUST_SMOOTHING_LENGTH`] unit lengths, keypoints at
+//!    [`Preset::ROBUST_KEYPOINT_DENSITY`] per unit area rather than a share of the vertices;
+//! 2. components as the prominent peaks of the diffused response, each a geodesic disc
+//!    ([`Grouping::Salient`], [`crate::saliency`]) instead of SMACOF and Algorithm 1, whose
+//!    order-dependent assignment a few moved keypoints reorder.
 //!
-//! SMACOF runs from the classical start only (one start instead of two): with 1,000
-//! keypoints instead of 500 its cost is four times KC-1's per start, and the second start
-//! changes no row by more than 0.004.
-//!
-//! With `keycomp bench repeatability` (BENCHMARKS.md, *Repeatability*), KC-1 against robust:
-//! average overlap at strength ≤ 5 0.848 against 0.895, noise 0.666 against 0.834, shot
-//! noise 0.619 against 0.852, isometry 0.757 against 0.831, with every row (some lose up to
-//! 0.023) and each ingredient's share reported there; detection takes 1.5–1.6× KC-1's
-//! time.
+//! With `keycomp bench repeatability` on canonical surfaces (BENCHMARKS.md, *Repeatability*),
+//! every row of the paper's transformations and the re-tessellation rows stay at 0.86 or
+//! more, where the paper's KC-1 averages 0.79 on meshes that share their triangles.
 
 use std::fmt;
 use std::str::FromStr;
@@ -41,6 +36,7 @@ use keycomp_harris::{HarrisParams, LengthReference, Neighborhood, Selection};
 
 use crate::cluster::ClusterParams;
 use crate::error::ComponentsError;
+use crate::saliency::SaliencyParams;
 use crate::smacof::SmacofParams;
 use crate::sphere::SphereRule;
 
@@ -62,6 +58,26 @@ pub struct ComponentParams {
     /// [`SphereRule::Enclosing`], the paper's.
     #[serde(default)]
     pub sphere: SphereRule,
+    /// How keypoints become key-components: the paper's SMACOF embedding, Algorithm 1 and
+    /// sphere-bounded growing ([`Grouping::Adaptive`], the default and what a recorded
+    /// parameter set without the field reads as), or the robust preset's salient regions
+    /// ([`Grouping::Salient`]: no geodesic matrix, no SMACOF; `cluster`, `sigma`, `smacof`
+    /// and `sphere` are then unused).
+    #[serde(default)]
+    pub grouping: Grouping,
+}
+
+/// How keypoints become key-components ([`ComponentParams::grouping`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub enum Grouping {
+    /// The paper's Sections 3.2–3.3: geodesic distances between the keypoints, SMACOF to the
+    /// plane, adaptive clustering (Algorithm 1), geodesic centre and region growing in a
+    /// sphere (Algorithm 2).
+    #[default]
+    Adaptive,
+    /// Prominent peaks of the diffused Harris response with geodesic discs around them
+    /// ([`crate::saliency`]; not in the paper).
+    Salient(SaliencyParams),
 }
 
 impl Default for ComponentParams {
@@ -77,6 +93,9 @@ impl ComponentParams {
         self.cluster.validate()?;
         self.smacof.validate()?;
         self.sphere.validate()?;
+        if let Grouping::Salient(p) = &self.grouping {
+            p.validate()?;
+        }
         if !(self.sigma.is_finite() && self.sigma > 0.0) {
             return Err(ComponentsError::param(
                 "sigma",
@@ -133,7 +152,8 @@ impl Preset {
     }
 
     /// The Harris 3D parameters of this preset: the paper's (`HarrisParams::default()`) for
-    /// KC-1..3; smoothed responses and 2 % of the vertices for the robust preset.
+    /// KC-1..3; smoothed responses, neighbourhoods in lengths and keypoints per unit area for
+    /// the robust preset.
     pub fn harris_params(self) -> HarrisParams {
         match self {
             Preset::Robust => HarrisParams {
@@ -165,10 +185,9 @@ impl Preset {
         }
     }
 
-    /// The full parameters of this preset: its clustering, σ = 1.5, SMACOF (the default for
-    /// KC-1..3; the robust preset runs only the classical start, which with twice the
-    /// keypoints keeps its time down at the same repeatability), and its sphere rule (the
-    /// enclosing sphere for KC-1..3).
+    /// The full parameters of this preset: the paper's clustering, σ = 1.5, SMACOF and
+    /// enclosing sphere for KC-1..3; salient regions ([`Grouping::Salient`]) for the robust
+    /// preset (its clustering, SMACOF and sphere fields are kept for `--grouping adaptive`).
     pub fn component_params(self) -> ComponentParams {
         ComponentParams {
             cluster: self.cluster_params(),
@@ -186,6 +205,10 @@ impl Preset {
                     factor: Self::ROBUST_SPREAD_FACTOR,
                 },
                 _ => SphereRule::Enclosing,
+            },
+            grouping: match self {
+                Preset::Robust => Grouping::Salient(SaliencyParams::default()),
+                _ => Grouping::Adaptive,
             },
         }
     }

@@ -87,7 +87,8 @@ use serde::{Deserialize, Serialize};
 use crate::cluster::{ClusterParams, adaptive_clustering};
 use crate::error::ComponentsError;
 use crate::grow::{Component, RegionGrower, geodesic_center};
-use crate::params::{ComponentParams, Preset};
+use crate::params::{ComponentParams, Grouping, Preset};
+use crate::saliency::{SaliencyParams, salient_components};
 use crate::smacof::{Embedding, UpperTriangle, smacof_upper};
 use crate::sphere::{Sphere, SphereRule};
 
@@ -420,6 +421,10 @@ pub fn detect_in(
     let harris = keycomp_harris::detect_in(&norm, &topo, &params.harris, harris_unit)?;
     let t_harris = ms(t);
 
+    if let Grouping::Salient(sp) = &params.components.grouping {
+        return salient_detection(&norm, &topo, harris, sp, area, scale, t_harris);
+    }
+
     let t = Instant::now();
     let (dist, geodesic_vertices, t_simplify, proxy) =
         keypoint_distances_with_proxy(&norm, &topo, &harris.keypoints, &params.geodesic)?;
@@ -488,6 +493,79 @@ pub fn detect_in(
             mds: t_mds,
             cluster: t_cluster,
             extract: t_extract,
+        },
+    })
+}
+
+/// Detection with [`Grouping::Salient`]: the salient regions of the response on the
+/// unit-area mesh `norm` ([`crate::saliency`]) instead of steps 3–6.
+fn salient_detection(
+    norm: &Mesh,
+    topo: &Topology,
+    harris: keycomp_harris::HarrisResult,
+    params: &SaliencyParams,
+    area: f64,
+    scale: f64,
+    t_harris: f64,
+) -> Result<Detection, DetectError> {
+    let t = Instant::now();
+    let found = salient_components(norm, topo, &harris.response, &harris.keypoints, params)?;
+    let face_areas = geometry::face_areas(norm);
+    let total: f64 = face_areas.iter().sum();
+    let mut clustered = vec![false; norm.num_vertices()];
+    let components: Vec<KeyComponent> = found
+        .into_iter()
+        .enumerate()
+        .map(|(id, c)| {
+            for &k in &c.keypoints {
+                clustered[k as usize] = true;
+            }
+            let area_fraction: f64 = c.faces.iter().map(|&f| face_areas[f as usize]).sum();
+            let at = norm.positions[c.peak as usize];
+            KeyComponent {
+                id,
+                center: c.peak,
+                sphere_center: (at.coords / scale).into(),
+                sphere_radius: c.reach / scale,
+                keypoints: c.keypoints,
+                vertices: c.vertices,
+                faces: c.faces,
+                area: if total > 0.0 {
+                    area_fraction / total
+                } else {
+                    0.0
+                },
+                missed_keypoints: Vec::new(),
+            }
+        })
+        .collect();
+    let mut unclustered: Vec<VertexId> = harris
+        .keypoints
+        .iter()
+        .copied()
+        .filter(|&k| !clustered[k as usize])
+        .collect();
+    unclustered.sort_unstable();
+    let t_cluster = ms(t);
+    Ok(Detection {
+        area,
+        scale,
+        response: harris.response,
+        keypoints: harris.keypoints,
+        embedding: Embedding {
+            points: Vec::new(),
+            stress: 0.0,
+            iterations: 0,
+        },
+        disconnected_pairs: 0,
+        geodesic_vertices: 0,
+        unclustered,
+        components,
+        proxy: None,
+        timings: Timings {
+            harris: t_harris,
+            cluster: t_cluster,
+            ..Timings::default()
         },
     })
 }

@@ -962,7 +962,10 @@ pub fn query_profile(
             mine.describe
         )));
     }
-    if theirs.detect == mine.detect || mine_is_default {
+    // the surface, and with it whether Harris skips fits at a border, is the index's
+    let mut asked = mine.detect.clone();
+    asked.harris.skip_boundary = theirs.detect.harris.skip_boundary;
+    if theirs.detect == asked || mine_is_default {
         return Ok(theirs);
     }
     Err(Error::Incomparable(format!(

@@ -1,7 +1,9 @@
 //! Detection options as a user gives them (a preset, then single values on top), turned into
 //! [`DetectParams`]: the one place the command line and other front ends share.
 
-use keycomp_components::{DetectParams, GeodesicOptions, Preset, SmacofParams};
+use keycomp_components::{
+    DetectParams, GeodesicOptions, Grouping, Preset, SaliencyParams, SmacofParams,
+};
 use keycomp_harris::{HarrisParams, Neighborhood, Selection};
 
 /// N of Algorithm 1 scaled for small shapes in the retrieval commands (`index add`, `query`,
@@ -59,6 +61,17 @@ pub struct DetectOptions {
     pub smacof_starts: Option<usize>,
     /// Whether SMACOF's first start is the classical scaling.
     pub classical_start: Option<bool>,
+    /// How keypoints become key-components: salient regions (true) or the paper's clustering
+    /// (false); the preset's when unset.
+    pub salient: Option<bool>,
+    /// The saliency's diffusion time, in unit areas.
+    pub saliency_time: Option<f64>,
+    /// The share of its height a salient peak's saddle lies below it.
+    pub prominence: Option<f64>,
+    /// The geodesic radius of a salient component, in unit lengths.
+    pub component_radius: Option<f64>,
+    /// The most salient components.
+    pub max_components: Option<usize>,
 }
 
 impl Default for DetectOptions {
@@ -83,6 +96,11 @@ impl Default for DetectOptions {
             proxy_cell_vertices: None,
             smacof_starts: None,
             classical_start: None,
+            salient: None,
+            saliency_time: None,
+            prominence: None,
+            component_radius: None,
+            max_components: None,
         }
     }
 }
@@ -132,6 +150,27 @@ impl DetectOptions {
         }
         if let Some(s) = self.sigma {
             c.sigma = s;
+        }
+        match self.salient {
+            Some(true) if c.grouping == Grouping::Adaptive => {
+                c.grouping = Grouping::Salient(SaliencyParams::default());
+            }
+            Some(false) => c.grouping = Grouping::Adaptive,
+            _ => {}
+        }
+        if let Grouping::Salient(sp) = &mut c.grouping {
+            if let Some(t) = self.saliency_time {
+                sp.time = t;
+            }
+            if let Some(x) = self.prominence {
+                sp.prominence = x;
+            }
+            if let Some(r) = self.component_radius {
+                sp.radius = r;
+            }
+            if let Some(k) = self.max_components {
+                sp.max_components = k;
+            }
         }
         p
     }

@@ -128,14 +128,14 @@ fn dense(lap: &Laplacian, count: usize) -> Result<Eigenpairs> {
 }
 
 /// The shift-invert operator `x ↦ (W − σM)⁻¹ M x` over a sparse Cholesky factor.
-struct Operator<'a> {
+pub(crate) struct Operator<'a> {
     symbolic: SymbolicCholesky<usize>,
     values: Vec<f64>,
     mass: &'a [f64],
 }
 
 impl<'a> Operator<'a> {
-    fn new(lap: &'a Laplacian, sigma: f64, par: Par) -> Result<Self> {
+    pub(crate) fn new(lap: &'a Laplacian, sigma: f64, par: Par) -> Result<Self> {
         let fail = |detail: String| SpectralError::Factorization { detail };
         let n = lap.system_size();
         let mut trip = Vec::with_capacity(lap.nonzeros() / 2 + n);
@@ -193,7 +193,7 @@ impl<'a> Operator<'a> {
     /// `out = (W − σM)⁻¹ M x`. The triangular solves run sequentially per column group, the
     /// groups in parallel on the rayon pool: faer's own parallel solve spends more time
     /// dispatching tiny supernodes than solving.
-    fn apply(&self, x: MatRef<'_, f64>, mut out: MatMut<'_, f64>) {
+    pub(crate) fn apply(&self, x: MatRef<'_, f64>, mut out: MatMut<'_, f64>) {
         for j in 0..x.ncols() {
             for i in 0..x.nrows() {
                 out[(i, j)] = self.mass[i] * x[(i, j)];

@@ -11,7 +11,8 @@
 //!   thick restart over a sparse Cholesky factorisation (Lanczos 1950, Ericsson & Ruhe 1980,
 //!   Wu & Simon 2000);
 //! - [`hks`]: heat kernel signature and the paper's HKS keypoints (Sun, Ovsjanikov & Guibas
-//!   2009).
+//!   2009);
+//! - [`diffuse`]: one implicit heat step `(M + tW) u = M f` (the robust preset's saliency).
 //!
 //! ```
 //! use keycomp_mesh::{synth, Topology};
@@ -27,6 +28,7 @@
 //! # Ok::<(), keycomp_spectral::SpectralError>(())
 //! ```
 
+pub mod diffuse;
 mod eigen;
 mod error;
 pub mod hks;
@@ -34,6 +36,7 @@ pub mod laplacian;
 mod params;
 pub mod spectrum;
 
+pub use diffuse::{diffuse, diffuse_all};
 pub use error::{Result, SpectralError};
 pub use hks::{hks_keypoints, paper_time};
 pub use laplacian::Laplacian;

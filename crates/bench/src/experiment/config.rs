@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use keycomp_components::{ClusterParams, GeodesicOptions, SmacofParams, SphereRule};
+use keycomp_components::{ClusterParams, GeodesicOptions, Grouping, SmacofParams, SphereRule};
 use keycomp_harris::{HarrisParams, Selection};
 use keycomp_mesh::Mesh;
 use keycomp_mser::{Method, MserParams};
@@ -83,8 +83,12 @@ pub struct PresetSpec {
     /// The sphere that σ scales (the paper's enclosing sphere, or the robust preset's spread
     /// sphere).
     pub sphere: SphereRule,
+    /// How keypoints become components: the paper's clustering, or the robust preset's salient
+    /// regions (then `cluster`, `sigma` and `sphere` are unused, and the shape is detected in
+    /// one go instead of in two cached stages).
+    pub grouping: Grouping,
     /// The paper's table read beside ours (`KC-1`, …, `MSER-KC`): the preset's own for the
-    /// paper's presets, KC-1's for the robust preset (KC-1's clustering), none if unknown.
+    /// paper's presets, KC-1's for the robust preset, none if unknown.
     pub paper_name: String,
 }
 
@@ -103,6 +107,7 @@ impl PresetSpec {
             cluster: ClusterParams::default(),
             sigma: 0.0,
             sphere: SphereRule::Enclosing,
+            grouping: Grouping::Adaptive,
             paper_name: name.to_owned(),
         })
     }

@@ -6,6 +6,7 @@ use std::borrow::Cow;
 use std::path::PathBuf;
 use std::time::Instant;
 
+use keycomp_components::{ComponentParams, DetectParams, Grouping, detect};
 use keycomp_harris::HarrisParams;
 use keycomp_mesh::geometry::vertex_areas;
 use keycomp_mesh::{Mesh, Topology, VertexId, read_mesh};
@@ -13,11 +14,11 @@ use keycomp_mser::{Method, covering_set, detect as detect_mser};
 use keycomp_surface::{Input, canonical};
 use serde::Serialize;
 
-use super::config::Config;
+use super::config::{Config, PresetSpec};
 use super::discover::{ISOMETRY, NullSpec};
 use crate::cache::{Lookup, MserEntry, cache_key, mser_cache_key};
 use crate::evaluate::Pullback;
-use crate::staged::{Embedded, Extractor, embed};
+use crate::staged::{Embedded, Extractor, Found, embed};
 use crate::transform::{Kind, transform};
 
 /// Where a shape came from.
@@ -246,9 +247,16 @@ impl Config {
         // canonical vertex -> the mesh's vertices nearest it (Pullback::nearest)
         let carrier = surface.as_ref().map(|s| Pullback::nearest(&mesh, s));
         let detected: &Mesh = surface.as_ref().unwrap_or(&mesh);
-        let (embedded, mut cache, mut cache_error) = if wants(true) {
+        let staged = self
+            .presets
+            .iter()
+            .any(|p| p.method == Method::Kc && p.grouping == Grouping::Adaptive);
+        let (embedded, mut cache, mut cache_error) = if wants(true) && staged {
             let (e, c, err) = self.stage1(detected, null)?;
             (Some(e), c, err)
+        } else if wants(true) {
+            // salient regions only: detected without the cache
+            (None, CacheUse::Off, None)
         } else {
             (None, CacheUse::Hit, None)
         };
@@ -261,6 +269,32 @@ impl Config {
             None
         };
         let extractor = embedded.as_ref().map(|_| Extractor::new(detected));
+        // salient regions are detected in one go: no stage worth caching
+        let salient = |p: &PresetSpec| -> Result<(Vec<Found>, Vec<VertexId>), String> {
+            let params = DetectParams {
+                harris: HarrisParams {
+                    selection: self.selection_for(detected, null.referenced),
+                    ..self.harris
+                },
+                components: ComponentParams {
+                    grouping: p.grouping,
+                    ..ComponentParams::default()
+                },
+                geodesic: self.geodesic,
+            };
+            let det = detect(detected, &params)
+                .map_err(|e| format!("{}: detection failed: {e}", p.name))?;
+            let found = det
+                .components
+                .into_iter()
+                .map(|c| Found {
+                    keypoints: c.keypoints,
+                    vertices: c.vertices,
+                })
+                .collect();
+            Ok((found, det.keypoints))
+        };
+        let mut salient_keypoints = None;
         let vertex_area = mser.as_ref().map(|_| vertex_areas(&mesh));
         // a detected vertex -> the nearest vertex of `mesh` (the identity without a surface)
         let to_mesh = |ids: &[VertexId]| -> Vec<VertexId> {
@@ -288,10 +322,19 @@ impl Config {
         let mut clusters = Vec::with_capacity(self.presets.len());
         for p in &self.presets {
             let (comps, keys) = match (p.method, &embedded, &extractor, &mser, &vertex_area) {
-                (Method::Kc, Some(e), Some(x), _, _) => {
-                    let found = x
-                        .components(e, &p.cluster, p.sigma, p.sphere)
-                        .map_err(|e| format!("{}: component extraction failed: {e}", p.name))?;
+                (Method::Kc, embedded, extractor, _, _)
+                    if p.grouping != Grouping::Adaptive || embedded.is_some() =>
+                {
+                    let found = match (p.grouping, embedded, extractor) {
+                        (Grouping::Adaptive, Some(e), Some(x)) => x
+                            .components(e, &p.cluster, p.sigma, p.sphere)
+                            .map_err(|e| format!("{}: component extraction failed: {e}", p.name))?,
+                        _ => {
+                            let (found, keys) = salient(p)?;
+                            salient_keypoints.get_or_insert(keys);
+                            found
+                        }
+                    };
                     let keys = found
                         .iter()
                         .map(|c| to_null(to_mesh(&c.keypoints)))
@@ -321,6 +364,10 @@ impl Config {
         }
         let (keypoints, keypoints_on_null) = match (&embedded, &mser) {
             (Some(e), _) => (e.keypoints.len(), to_null(to_mesh(&e.keypoints))),
+            (None, _) if salient_keypoints.is_some() => {
+                let k = salient_keypoints.unwrap_or_default();
+                (k.len(), to_null(to_mesh(&k)))
+            }
             (None, Some(m)) => (m.keypoints.len(), to_null(m.keypoints.clone())),
             (None, None) => (0, Vec::new()),
         };

@@ -76,10 +76,10 @@ pub struct Args {
     /// as every command analyses it, about 10,000 vertices per whole shape whatever its
     /// tessellation, the components carried back to the shape's vertices to be measured;
     /// Harris skips fits touching a border, as in canonical profiles) or as-read (each shape
-    /// as generated, the paper's experiment). MSER methods always run on the shapes as
-    /// generated.
-    #[arg(long, value_name = "MODE", default_value = "canonical", value_parser = ["canonical", "as-read"])]
-    pub surface: String,
+    /// as generated, the paper's experiment). [default: canonical for the robust preset,
+    /// as-read for the paper's presets.] MSER methods always run on the shapes as generated.
+    #[arg(long, value_name = "MODE", value_parser = ["canonical", "as-read"])]
+    pub surface: Option<String>,
     /// Override R of every preset (marks it with *).
     #[arg(long = "r", value_name = "R")]
     pub r: Option<f64>,
@@ -239,6 +239,7 @@ impl Args {
                     cluster,
                     sigma: self.sigma.unwrap_or(c.sigma),
                     sphere: self.sphere.unwrap_or(c.sphere),
+                    grouping: c.grouping,
                     // the robust preset keeps KC-1's clustering: read beside the paper's KC-1
                     paper_name: if p.is_paper() { *p } else { Preset::Kc1 }.to_string(),
                 }
@@ -259,7 +260,9 @@ impl Args {
             harris.smoothing_iterations = n;
         }
         // a budget calibrated on the null shape's vertices is a measure of the shapes as read
-        let surface = (self.surface == "canonical" && !self.tessellation_independent)
+        let canonical = crate::args::canonical_choice(self.surface.as_deref())
+            .unwrap_or_else(|| !lead.is_some_and(Preset::is_paper));
+        let surface = (canonical && !self.tessellation_independent)
             .then(keycomp_surface::SurfaceParams::default);
         if surface.is_some() {
             harris.skip_boundary = true;

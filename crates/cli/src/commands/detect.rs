@@ -83,8 +83,10 @@ pub fn run(args: Args) -> Result<ExitCode> {
         eprintln!("warning: {}: {w}", args.mesh.display());
     }
     // the file's geometry is kept when detection runs on its canonical surface (for --ply)
+    let canonical = crate::args::canonical_choice(args.surface.as_deref())
+        .unwrap_or_else(|| args.detect.canonical_by_default());
     let (mesh, input) = match loaded.geometry {
-        Geometry::Mesh(m) if args.surface.as_deref() == Some("as-read") => (m, None),
+        Geometry::Mesh(m) if !canonical => (m, None),
         geometry => {
             // as in the analysis: no keypoints from fits that reach a scan's border
             params.harris.skip_boundary = true;
@@ -165,6 +167,18 @@ pub fn run(args: Args) -> Result<ExitCode> {
                 mp.time,
                 mp.eigenpairs,
                 mp.stable.delta,
+                det.keypoints.len(),
+                det.unclustered.len()
+            )?;
+        } else if let keycomp_components::Grouping::Salient(sp) = cp.grouping {
+            writeln!(
+                s,
+                "preset {} (salient peaks: t {}, prominence {}, radius {}, at most {}): {} keypoints, {} in no component",
+                args.detect.detection_preset(),
+                sp.time,
+                sp.prominence,
+                sp.radius,
+                sp.max_components,
                 det.keypoints.len(),
                 det.unclustered.len()
             )?;

@@ -103,7 +103,12 @@ fn add(args: AddArgs) -> Result<ExitCode> {
     let options = AddOptions {
         detect: args.detect.explicit(),
         units: args.units.units()?,
-        canonical: args.surface.canonical(),
+        // a new index made with a paper preset analyses the meshes as read, as the paper did;
+        // an existing one keeps its own choice
+        canonical: args.surface.canonical().or_else(|| {
+            let new = !args.dir.index.join(keycomp_index::MANIFEST_NAME).exists();
+            (new && !args.detect.canonical_by_default()).then_some(false)
+        }),
         keep_going: true,
     };
     let bar = Bar(progress(0, "indexing"));

@@ -102,7 +102,10 @@ pub fn run(args: Args) -> Result<ExitCode> {
     let options = MatchOptions {
         detect: args.detect.explicit(),
         units: args.units.units()?.unwrap_or_default(),
-        canonical: args.surface.canonical().unwrap_or(true),
+        canonical: args
+            .surface
+            .canonical()
+            .unwrap_or_else(|| args.detect.canonical_by_default()),
         pose_weight: args.pose,
         verify_weight: args.verify.0,
     };

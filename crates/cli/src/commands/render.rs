@@ -69,7 +69,9 @@ pub fn run(args: Args) -> Result<ExitCode> {
     let mut params = args.detect.params();
     let mut harris = args.detect.harris.params(HarrisParams::default());
     let coloured = args.components || args.response || args.keypoints;
-    let canonical = coloured && args.surface.as_deref() != Some("as-read");
+    let canonical = coloured
+        && crate::args::canonical_choice(args.surface.as_deref())
+            .unwrap_or_else(|| args.detect.canonical_by_default());
     let surface = if canonical {
         // as in the analysis: no keypoints from fits that reach a border
         params.harris.skip_boundary = true;
