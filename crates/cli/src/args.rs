@@ -10,12 +10,13 @@ use keycomp_harris::HarrisParams;
 /// Detection options shared by the commands that detect key-components.
 #[derive(Debug, Clone, clap::Args)]
 pub struct DetectArgs {
-    /// Preset: robust (the default; keycomp's: KC-1's clustering R 0.15, T 0.30, N 30 on
-    /// Harris responses of a copy smoothed over 0.06 unit lengths, 400 keypoints per unit area,
-    /// neighbourhoods of 0.02 unit lengths, spheres from the keypoints' spread: every budget
-    /// and length per unit of the source's area and length; BENCHMARKS.md, *Repeatability*),
-    /// or one of the paper's (Section 4.3), whose keypoints are 1 % of the vertices: kc1
-    /// (R 0.15, T 0.30, N 30), kc2 (N 20), kc3 (R 0.10, T 0.20, N 30).
+    /// Preset: robust (the default; keycomp's: Harris responses of a copy smoothed over 0.0257
+    /// unit lengths in neighbourhoods of 0.02 unit lengths, 400 keypoints per unit area, and
+    /// components as the salient peaks of the diffused response, geodesic discs of 0.15 unit
+    /// lengths: every length per unit of the source's; BENCHMARKS.md, *Repeatability*), or one
+    /// of the paper's (Section 4.3), whose keypoints are 1 % of the vertices and which analyse
+    /// the mesh as read unless --surface canonical: kc1 (R 0.15, T 0.30, N 30), kc2 (N 20),
+    /// kc3 (R 0.10, T 0.20, N 30).
     #[arg(long, value_parser = parse_preset)]
     pub preset: Option<Preset>,
     #[command(flatten)]

@@ -120,9 +120,9 @@ pub enum Preset {
     /// KC-3: R = 0.10, T = 0.20, N = 30 (medium regions).
     #[serde(rename = "KC-3", alias = "kc3", alias = "kc-3")]
     Kc3,
-    /// keycomp's robust preset (not in the paper): KC-1's clustering with smoothed Harris
-    /// responses, 2 % of the vertices as keypoints and [`SphereRule::Spread`] (see *The robust
-    /// preset* in the module docs).
+    /// keycomp's robust preset (not in the paper): smoothed Harris responses in neighbourhoods
+    /// of fixed length, keypoints per unit area, and components as the salient peaks of the
+    /// diffused response ([`Grouping::Salient`]; see *The robust preset* in the module docs).
     #[serde(rename = "robust", alias = "Robust", alias = "ROBUST")]
     Robust,
 }

@@ -21,8 +21,8 @@ pub const DEFAULT_PRESET: Preset = Preset::Robust;
 /// each option given on top. `None` keeps the preset's (or the default) value.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DetectOptions {
-    /// The robust preset (the default: KC-1's clustering on smoothed responses, keypoints per
-    /// unit area, spread spheres), or KC-1 (R 0.15, T 0.30, N 30), KC-2 (N 20), KC-3 (R 0.10,
+    /// The robust preset (the default: smoothed responses, keypoints per unit area, salient
+    /// peaks as components), or KC-1 (R 0.15, T 0.30, N 30), KC-2 (N 20), KC-3 (R 0.10,
     /// T 0.20, N 30).
     pub preset: Preset,
     /// Keep this many keypoints per unit area (the robust preset's default 400).

@@ -3,7 +3,7 @@
 
 use std::fmt::Write as _;
 
-use keycomp_components::SphereRule;
+use keycomp_components::{Grouping, SphereRule};
 use keycomp_mser::Method;
 
 use super::config::PresetSpec;
@@ -15,7 +15,8 @@ fn cell(v: Option<f64>) -> String {
 }
 
 impl Report {
-    /// A preset's parameters in words: `R 0.15, T 0.3, N 30, σ 1.5` for key-components, the
+    /// A preset's parameters in words: `R 0.15, T 0.3, N 30, σ 1.5` for key-components (the
+    /// diffusion time, prominence, radius and most components for salient peaks), the
     /// weights, times, eigenpairs and stability parameters for the MSER methods.
     pub fn preset_parameters(&self, p: &PresetSpec) -> String {
         match p.method {
@@ -32,10 +33,16 @@ impl Report {
                     (None, 0) => String::new(),
                     (None, n) => format!(", Harris after {n} Taubin pairs"),
                 };
-                format!(
-                    "R {}, T {}, N {}, σ {}{sphere}{smoothing}",
-                    p.cluster.r, p.cluster.t, p.cluster.n_min, p.sigma
-                )
+                match p.grouping {
+                    Grouping::Salient(sp) => format!(
+                        "salient peaks: t {}, prominence {}, radius {}, at most {}{smoothing}",
+                        sp.time, sp.prominence, sp.radius, sp.max_components
+                    ),
+                    Grouping::Adaptive => format!(
+                        "R {}, T {}, N {}, σ {}{sphere}{smoothing}",
+                        p.cluster.r, p.cluster.t, p.cluster.n_min, p.sigma
+                    ),
+                }
             }
             Method::Mser | Method::MserKc => {
                 let m = &self.mser;

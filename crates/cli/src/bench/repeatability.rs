@@ -47,8 +47,8 @@ pub struct Args {
     /// files are all null shapes (no isometry) [default: ../shared/data].
     #[arg(long, value_name = "DIR")]
     pub data: Option<PathBuf>,
-    /// Presets to evaluate: robust (keycomp's default detection: KC-1's clustering on smoothed
-    /// Harris responses with 2 % keypoints and spread spheres, read beside the paper's KC-1),
+    /// Presets to evaluate: robust (keycomp's default detection: salient peaks of smoothed
+    /// Harris responses, read beside the paper's KC-1),
     /// kc1, kc2, kc3, or all (the paper's three; their keypoints differ from robust's, so
     /// robust runs on its own).
     #[arg(long, default_value = "robust", value_parser = parse_presets)]
@@ -240,7 +240,7 @@ impl Args {
                     sigma: self.sigma.unwrap_or(c.sigma),
                     sphere: self.sphere.unwrap_or(c.sphere),
                     grouping: c.grouping,
-                    // the robust preset keeps KC-1's clustering: read beside the paper's KC-1
+                    // the robust preset is read beside the paper's KC-1, the default it replaces
                     paper_name: if p.is_paper() { *p } else { Preset::Kc1 }.to_string(),
                 }
             })
