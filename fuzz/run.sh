@@ -9,7 +9,7 @@ secs=${1:-600}
 shift || true
 targets=("$@")
 if [ ${#targets[@]} -eq 0 ]; then
-    targets=(mesh_off mesh_obj mesh_ply mesh_stl mesh_gltf mesh_xyz mesh_pts mesh_pcd index_segment index_manifest index_search_cache map_file)
+    targets=(mesh_off mesh_obj mesh_ply mesh_stl mesh_gltf mesh_xyz mesh_pts mesh_pcd index_segment index_manifest index_search_cache map_file surface_off)
 fi
 
 if ! cargo afl --version >/dev/null 2>&1; then

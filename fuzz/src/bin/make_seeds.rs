@@ -23,6 +23,13 @@ const V: [[f32; 3]; 4] = [
 ];
 const F: [[u32; 3]; 4] = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]];
 
+/// A unit square in two triangles: an open sheet with a border.
+const SHEET: &[u8] = b"OFF\n4 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n3 0 2 3\n";
+
+/// Two unit squares crossing at right angles: a soup, whose pieces cross.
+const CROSSING: &[u8] = b"OFF\n8 4 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n\
+0.5 -0.5 -0.5\n0.5 1.5 -0.5\n0.5 1.5 0.5\n0.5 -0.5 0.5\n3 0 1 2\n3 0 2 3\n3 4 5 6\n3 4 6 7\n";
+
 /// Literal-only LZF (runs of at most 32 bytes): valid input for PCD's binary_compressed.
 fn lzf_literals(data: &[u8]) -> Vec<u8> {
     let mut out = Vec::new();
@@ -162,6 +169,11 @@ fn main() {
         "quad.off",
         b"OFF\n# a square as one polygon\n4 1 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n",
     );
+    // the canonical surface: a closed mesh (remeshed), an open sheet, two crossing squares (a
+    // soup, reconstructed)
+    put("surface_off", "tetra.off", off.as_bytes());
+    put("surface_off", "sheet.off", SHEET);
+    put("surface_off", "crossing.off", CROSSING);
     put("mesh_obj", "tetra.obj", obj.as_bytes());
     put(
         "mesh_obj",

@@ -97,7 +97,7 @@ pub fn run(args: Args) -> Result<ExitCode> {
             summary.pieces,
             summary.boundary_vertices,
             if summary.reconstructed {
-                "reconstructed, then remeshed"
+                "reconstructed from an offset volume"
             } else {
                 "remeshed on its own faces"
             }
