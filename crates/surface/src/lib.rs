@@ -25,8 +25,8 @@
 //! below), which joins the pieces into one surface and drops hidden faces, and that
 //! reconstruction is analysed as it is made ([`Surface::reconstructed`]): its surface-nets
 //! triangles are already close to equilateral and of one size, and its vertices already lie on
-//! the input. It is not remeshed: projected onto the input, the two sides of a thin panel fall
-//! onto one another, and projected onto itself the remesh measured no better on CAD soups.
+//! the input. It is not remeshed: projected onto the input, the two sides of a thin panel would
+//! fall onto one another.
 //!
 //! L is chosen so that the result has about [`SurfaceParams::vertices`] vertices for a whole
 //! shape: equilateral triangles of side L, two per vertex, cover an area A when
@@ -433,7 +433,8 @@ fn fill_small_holes(mesh: &Mesh, max_perimeter: f64) -> Mesh {
 /// when its other pieces lie apart, none within `gap` of another (a cut-off limb, separate
 /// closed parts), as samples `gap` apart on each piece tell; `None` when two pieces touch or
 /// cross (a soup of overlapping parts, which a reconstruction joins into one surface), or
-/// when the samples would be too many.
+/// when the samples would be too many, or when the rest is not an edge- and vertex-manifold,
+/// consistently oriented mesh (which remeshing needs).
 fn apart_pieces(mesh: &Mesh, min_piece: f64, gap: f64) -> Option<(Mesh, usize)> {
     let topo = keycomp_mesh::Topology::new(mesh);
     let (label, _) = topo.connected_components();
@@ -455,6 +456,11 @@ fn apart_pieces(mesh: &Mesh, min_piece: f64, gap: f64) -> Option<(Mesh, usize)> 
         positions: mesh.positions.clone(),
         faces,
     };
+    // a non-manifold or inconsistently oriented mesh cannot be remeshed: found in O(F log F),
+    // before the sampling below (hundreds of MB on a large soup)
+    if remesh::HalfEdges::new(&out).is_err() {
+        return None;
+    }
     if piece_area.keys().filter(|&&l| kept(l)).count() > 1 {
         // samples every `gap` on each piece: where two pieces cross or touch, one of them lies
         // within `gap` of the other piece

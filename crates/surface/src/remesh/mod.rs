@@ -36,8 +36,9 @@ use keycomp_mesh::{Mesh, Point3, Vector3};
 use rayon::prelude::*;
 
 use crate::closest::ClosestPoint;
+pub(crate) use halfedge::HalfEdges;
+use halfedge::NONE;
 pub(crate) use halfedge::NotManifold;
-use halfedge::{HalfEdges, NONE};
 
 /// Parameters of [`remesh`].
 #[derive(Debug, Clone, Copy, PartialEq)]
