@@ -12,7 +12,7 @@
 //!   Wu & Simon 2000);
 //! - [`hks`]: heat kernel signature and the paper's HKS keypoints (Sun, Ovsjanikov & Guibas
 //!   2009);
-//! - [`diffuse`]: one implicit heat step `(M + tW) u = M f` (the robust preset's saliency).
+//! - [`diffuse()`]: one implicit heat step `(M + tW) u = M f` (the robust preset's saliency).
 //!
 //! ```
 //! use keycomp_mesh::{synth, Topology};

@@ -273,7 +273,7 @@ pub fn canonical_at(
     reconstruction(input, params, density)
 }
 
-/// Rounds of [`remesh::remesh`] of a canonical surface.
+/// Rounds of remeshing ([`remesh`](mod@remesh)) of a canonical surface.
 pub const REMESH_ROUNDS: usize = 8;
 
 /// The most faces remeshing may make for `target` vertices from a start of `faces` faces

@@ -40,7 +40,7 @@ pub(crate) use halfedge::HalfEdges;
 use halfedge::NONE;
 pub(crate) use halfedge::NotManifold;
 
-/// Parameters of [`remesh`].
+/// Parameters of the remeshing (see the [module docs](self)).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RemeshParams {
     /// Target edge length L, in the input's units (> 0).
