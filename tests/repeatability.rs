@@ -378,9 +378,12 @@ fn bench_repeatability_runs_the_robust_preset_by_default() {
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let text = String::from_utf8_lossy(&o.stdout);
-    // read beside the paper's KC-1, whose clustering it keeps
+    // read beside the paper's KC-1, the default it replaces
     assert!(text.contains("### robust*"), "{text}");
-    assert!(text.contains("spread sphere ×1.2"), "{text}");
+    assert!(
+        text.contains("salient peaks: t 0.02, prominence 0.4, radius 0.15, at most 12"),
+        "{text}"
+    );
     assert!(
         text.contains("Harris after smoothing over 0.0257 unit lengths"),
         "{text}"
