@@ -8,7 +8,7 @@
 //! edges (edges of one face) get a tree of their own, for points that must stay on a
 //! boundary ([`ClosestPoint::on_boundary`]).
 
-use keycomp_mesh::{Mesh, Point3, Vector3};
+use keycomp_mesh::{Mesh, Point3};
 
 use crate::trim::closest_on_triangle;
 
@@ -195,6 +195,17 @@ pub struct Hit {
     pub distance: f64,
 }
 
+impl From<(u32, Point3<f64>, f64)> for Hit {
+    /// An item, its nearest point and their squared distance.
+    fn from((item, point, d2): (u32, Point3<f64>, f64)) -> Hit {
+        Hit {
+            point,
+            item,
+            distance: d2.sqrt(),
+        }
+    }
+}
+
 impl ClosestPoint {
     /// The search structures of `mesh`'s faces and boundary edges.
     pub fn new(mesh: &Mesh) -> ClosestPoint {
@@ -231,16 +242,7 @@ impl ClosestPoint {
 
     /// The nearest point of the faces to `p` (none for a mesh without faces).
     pub fn nearest(&self, p: &Point3<f64>) -> Option<Hit> {
-        self.faces
-            .nearest(p, f64::INFINITY, |i| {
-                let q = closest_on_triangle(p, &self.triangles[i as usize]);
-                ((q - p).norm_squared(), q)
-            })
-            .map(|(item, point, d2)| Hit {
-                point,
-                item,
-                distance: d2.sqrt(),
-            })
+        self.nearest_among(p, f64::INFINITY, |_| true)
     }
 
     /// The nearest point to `p` of the faces `keep` accepts, if one lies within `within`.
@@ -260,11 +262,7 @@ impl ClosestPoint {
                 }
             })
             .filter(|(_, _, d2)| d2.is_finite())
-            .map(|(item, point, d2)| Hit {
-                point,
-                item,
-                distance: d2.sqrt(),
-            })
+            .map(Hit::from)
     }
 
     /// The nearest point of the boundary edges to `p` (none for a closed mesh).
@@ -274,25 +272,12 @@ impl ClosestPoint {
                 let q = closest_on_segment(p, &self.segments[i as usize]);
                 ((q - p).norm_squared(), q)
             })
-            .map(|(item, point, d2)| Hit {
-                point,
-                item,
-                distance: d2.sqrt(),
-            })
+            .map(Hit::from)
     }
 
     /// Whether the mesh has boundary edges.
     pub fn has_boundary(&self) -> bool {
         !self.segments.is_empty()
-    }
-
-    /// The unit normal of face `f` (zero for a degenerate one).
-    pub fn face_normal(&self, f: u32) -> Vector3<f64> {
-        let [a, b, c] = self.triangles[f as usize];
-        (b - a)
-            .cross(&(c - a))
-            .try_normalize(0.0)
-            .unwrap_or_else(Vector3::zeros)
     }
 }
 

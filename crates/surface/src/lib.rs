@@ -304,24 +304,33 @@ fn remeshed_directly(
     let mesh = frame.entered(mesh);
     let target = density.target(area, params);
     let l = edge_for(1.0, target);
-    let Some((start, dropped)) = apart_pieces(&mesh, params.min_piece, 0.25 * l) else {
+    let large = trim::LargePieces::of(&mesh, params.min_piece);
+    let dropped = mesh.faces.len() - large.faces.len();
+    let kept = Mesh {
+        positions: mesh.positions,
+        faces: large.faces,
+    };
+    let start = fill_small_holes(&kept, HOLE_PERIMETER * l);
+    // remeshing needs an edge- and vertex-manifold, consistently oriented mesh: O(F log F),
+    // before any sampling
+    let Ok(he) = remesh::HalfEdges::new(&start) else {
         return Ok(None);
     };
-    let start = fill_small_holes(&start, HOLE_PERIMETER * l);
     let closest = closest::ClosestPoint::new(&start);
+    if large.pieces > 1 && pieces_touch(&kept, &large.label, &closest, 0.25 * l) {
+        return Ok(None);
+    }
     let remeshed = remesh::remesh(
-        &start,
+        he,
         &remesh::RemeshParams {
             edge: l,
             iterations: REMESH_ROUNDS,
-            boundary_on_input: true,
-            max_projection: f64::INFINITY,
             max_faces: max_faces(target, start.faces.len()),
         },
         &closest,
     );
-    Ok(remeshed.ok().map(|m| Surface {
-        mesh: frame.left(m),
+    Ok(Some(Surface {
+        mesh: frame.left(remeshed),
         spacing: l * frame.unit,
         offset: 0.0,
         trimmed_faces: 0,
@@ -429,59 +438,27 @@ fn fill_small_holes(mesh: &Mesh, max_perimeter: f64) -> Mesh {
     out
 }
 
-/// `mesh` without its specks (pieces under `min_piece` of the area, with the faces left out)
-/// when its other pieces lie apart, none within `gap` of another (a cut-off limb, separate
-/// closed parts), as samples `gap` apart on each piece tell; `None` when two pieces touch or
-/// cross (a soup of overlapping parts, which a reconstruction joins into one surface), or
-/// when the samples would be too many, or when the rest is not an edge- and vertex-manifold,
-/// consistently oriented mesh (which remeshing needs).
-fn apart_pieces(mesh: &Mesh, min_piece: f64, gap: f64) -> Option<(Mesh, usize)> {
-    let topo = keycomp_mesh::Topology::new(mesh);
-    let (label, _) = topo.connected_components();
-    let areas = geometry::face_areas(mesh);
-    let total: f64 = areas.iter().sum();
-    let mut piece_area: std::collections::BTreeMap<u32, f64> = Default::default();
-    for (f, t) in mesh.faces.iter().enumerate() {
-        *piece_area.entry(label[t[0] as usize]).or_default() += areas[f];
-    }
-    let kept = |l: u32| piece_area.get(&l).is_some_and(|&a| a >= min_piece * total);
-    let faces: Vec<[u32; 3]> = mesh
-        .faces
-        .iter()
-        .copied()
-        .filter(|t| kept(label[t[0] as usize]))
-        .collect();
-    let dropped = mesh.faces.len() - faces.len();
-    let out = Mesh {
-        positions: mesh.positions.clone(),
-        faces,
+/// Whether two pieces of `kept` (pieces by vertex `label`) touch or cross: samples every `gap`
+/// on each piece, one of which then lies within `gap` of another piece's faces, searched in
+/// `closest`, built on `kept` with faces appended (the fans that close small holes). Too many
+/// samples count as touching (the mesh is then reconstructed).
+fn pieces_touch(kept: &Mesh, label: &[u32], closest: &closest::ClosestPoint, gap: f64) -> bool {
+    let face_piece: Vec<u32> = kept.faces.iter().map(|t| label[t[0] as usize]).collect();
+    let Ok(samples) = sample::lattice(kept, &vec![false; kept.faces.len()], gap) else {
+        return true;
     };
-    // a non-manifold or inconsistently oriented mesh cannot be remeshed: found in O(F log F),
-    // before the sampling below (hundreds of MB on a large soup)
-    if remesh::HalfEdges::new(&out).is_err() {
-        return None;
-    }
-    if piece_area.keys().filter(|&&l| kept(l)).count() > 1 {
-        // samples every `gap` on each piece: where two pieces cross or touch, one of them lies
-        // within `gap` of the other piece
-        let face_piece: Vec<u32> = out.faces.iter().map(|t| label[t[0] as usize]).collect();
-        let closest = closest::ClosestPoint::new(&out);
-        let samples = sample::lattice(&out, &vec![false; out.faces.len()], gap).ok()?;
-        let touching = samples
-            .positions
-            .par_iter()
-            .zip(&samples.faces)
-            .any(|(p, &f)| {
-                let own = face_piece[f as usize];
-                closest
-                    .nearest_among(p, gap, |g| face_piece[g as usize] != own)
-                    .is_some()
-            });
-        if touching {
-            return None;
-        }
-    }
-    Some((out, dropped))
+    samples
+        .positions
+        .par_iter()
+        .zip(&samples.faces)
+        .any(|(p, &f)| {
+            let own = face_piece[f as usize];
+            closest
+                .nearest_among(p, gap, |g| {
+                    face_piece.get(g as usize).is_some_and(|&q| q != own)
+                })
+                .is_some()
+        })
 }
 
 /// The offset-volume reconstruction of `input` (steps 1–5 of the module docs), its spacing

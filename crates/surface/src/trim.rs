@@ -335,23 +335,49 @@ pub fn drop_small_pieces(
     min_piece: f64,
 ) -> Result<(Mesh, usize), SurfaceError> {
     let mesh = compact(positions, faces)?;
-    let topo = Topology::new(&mesh);
-    let (label, pieces) = topo.connected_components();
-    let areas = geometry::face_areas(&mesh);
-    let mut piece_area = vec![0.0; pieces];
-    for (f, t) in mesh.faces.iter().enumerate() {
-        piece_area[label[t[0] as usize] as usize] += areas[f];
+    let large = LargePieces::of(&mesh, min_piece);
+    let dropped = mesh.faces.len() - large.faces.len();
+    Ok((compact(mesh.positions, large.faces)?, dropped))
+}
+
+/// The faces of a mesh's pieces of at least a share of its area ([`LargePieces::of`]).
+pub(crate) struct LargePieces {
+    /// The kept faces, in the mesh's order.
+    pub faces: Vec<[u32; 3]>,
+    /// Each vertex's piece (`Topology::connected_components`).
+    pub label: Vec<u32>,
+    /// How many pieces the kept faces make.
+    pub pieces: usize,
+}
+
+impl LargePieces {
+    /// The faces of `mesh` in pieces of at least `min_piece` of its area.
+    pub fn of(mesh: &Mesh, min_piece: f64) -> LargePieces {
+        let (label, pieces) = Topology::new(mesh).connected_components();
+        let areas = geometry::face_areas(mesh);
+        let mut piece_area = vec![0.0; pieces];
+        for (f, t) in mesh.faces.iter().enumerate() {
+            piece_area[label[t[0] as usize] as usize] += areas[f];
+        }
+        let total: f64 = piece_area.iter().sum();
+        let large = |l: u32| piece_area[l as usize] >= min_piece * total;
+        let faces: Vec<[u32; 3]> = mesh
+            .faces
+            .iter()
+            .copied()
+            .filter(|t| large(label[t[0] as usize]))
+            .collect();
+        let mut seen = vec![false; pieces];
+        for t in &faces {
+            seen[label[t[0] as usize] as usize] = true;
+        }
+        let pieces = seen.iter().filter(|&&s| s).count();
+        LargePieces {
+            faces,
+            label,
+            pieces,
+        }
     }
-    let total: f64 = piece_area.iter().sum();
-    let before = mesh.faces.len();
-    let kept: Vec<[u32; 3]> = mesh
-        .faces
-        .iter()
-        .copied()
-        .filter(|t| piece_area[label[t[0] as usize] as usize] >= min_piece * total)
-        .collect();
-    let dropped = before - kept.len();
-    Ok((compact(mesh.positions, kept)?, dropped))
 }
 
 /// A validated mesh of `faces` (degenerate ones dropped) over the vertices they use, in order

@@ -4,9 +4,8 @@
 //! Processing 2004; M. Botsch, L. Kobbelt, M. Pauly, P. Alliez, B. Lévy, *Polygon Mesh
 //! Processing*, AK Peters 2010, §6.5.3).
 //!
-//! From a starting mesh (the input itself when it is a clean manifold, else a reconstruction
-//! of it) and a target edge length L, each of [`RemeshParams::iterations`] rounds does, in
-//! order:
+//! From a clean manifold mesh (the input, its small holes closed) and a target edge length L,
+//! each of [`RemeshParams::iterations`] rounds does, in order:
 //! 1. **Split** every edge longer than 4/3·L at its midpoint (in the first round, until none is
 //!    left), the new vertex put on the input.
 //! 2. **Collapse** every edge shorter than 4/5·L into its midpoint (onto the boundary vertex
@@ -38,7 +37,6 @@ use rayon::prelude::*;
 use crate::closest::ClosestPoint;
 pub(crate) use halfedge::HalfEdges;
 use halfedge::NONE;
-pub(crate) use halfedge::NotManifold;
 
 /// Parameters of the remeshing (see the [module docs](self)).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -47,44 +45,31 @@ pub struct RemeshParams {
     pub edge: f64,
     /// Rounds of split, collapse, flip, relax and project (default 8).
     pub iterations: usize,
-    /// Keep the start's boundary vertices on the input's boundary edges (when the start is the
-    /// input itself); otherwise they are projected onto its faces like the others.
-    pub boundary_on_input: bool,
-    /// A vertex farther than this from the input (a bridge a reconstruction threw across a
-    /// gap) stays where relaxation put it instead of being projected; infinity for no bound.
-    pub max_projection: f64,
     /// No edge is split once the mesh has this many faces (a bound on the work and memory
     /// whatever the input: slivers of an input far longer than L would otherwise multiply).
     pub max_faces: usize,
 }
 
-/// The nearest point of `target` to `p` (of its boundary when `boundary` and it has one) when it
-/// is at most `max` away, else `p` itself.
-fn project_within(target: &ClosestPoint, p: &Point3<f64>, boundary: bool, max: f64) -> Point3<f64> {
+/// The nearest point of `target` to `p`: of its boundary edges when `boundary` (and it has
+/// any), else of its faces; `p` itself if there is none or it is not finite.
+fn project(target: &ClosestPoint, p: &Point3<f64>, boundary: bool) -> Point3<f64> {
     let hit = if boundary {
         target.on_boundary(p).or_else(|| target.nearest(p))
     } else {
         target.nearest(p)
     };
     match hit.map(|h| h.point) {
-        Some(q) if (q - p).norm_squared() <= max * max && q.iter().all(|c| c.is_finite()) => q,
+        Some(q) if q.iter().all(|c| c.is_finite()) => q,
         _ => *p,
     }
 }
 
-/// Remeshes `start` isotropically at `params.edge`, projected onto `target` (see the [module
-/// docs](self)). Errors when `start` is not an edge- and vertex-manifold, consistently oriented
-/// mesh.
-pub(crate) fn remesh(
-    start: &Mesh,
-    params: &RemeshParams,
-    target: &ClosestPoint,
-) -> Result<Mesh, NotManifold> {
-    let mut he = HalfEdges::new(start)?;
+/// Remeshes the mesh of `he` (built from an edge- and vertex-manifold, consistently oriented
+/// mesh) isotropically at `params.edge`, projected onto `target`, boundary vertices onto its
+/// boundary edges (see the [module docs](self)).
+pub(crate) fn remesh(mut he: HalfEdges, params: &RemeshParams, target: &ClosestPoint) -> Mesh {
     let l = params.edge;
     let (hi2, lo2) = ((4.0 / 3.0 * l).powi(2), (4.0 / 5.0 * l).powi(2));
-    let keep_boundary = params.boundary_on_input;
-    let max = params.max_projection;
     let mut scratch = Vec::new();
     for round in 0..params.iterations {
         // 1. split, in the first round until no edge is too long
@@ -99,7 +84,7 @@ pub(crate) fn remesh(
                     let boundary = he.is_boundary_edge(h);
                     let mid =
                         Point3::from((he.pos[a as usize].coords + he.pos[b as usize].coords) * 0.5);
-                    let p = project_within(target, &mid, boundary && keep_boundary, max);
+                    let p = project(target, &mid, boundary);
                     he.split(h, p);
                     any = true;
                 }
@@ -152,7 +137,7 @@ pub(crate) fn remesh(
                 let boundary = he.is_boundary_vertex(v);
                 let p = he.pos[v as usize];
                 let relaxed = relaxed(&he, v, boundary, ring);
-                let q = project_within(target, &relaxed, boundary && keep_boundary, max);
+                let q = project(target, &relaxed, boundary);
                 (
                     v,
                     if q.iter().all(|c| c.is_finite()) {
@@ -167,7 +152,7 @@ pub(crate) fn remesh(
             he.pos[v as usize] = p;
         }
     }
-    Ok(he.to_mesh())
+    he.to_mesh()
 }
 
 /// Where relaxation moves `v`: towards the centroid of its neighbours in its tangent plane, or
