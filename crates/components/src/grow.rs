@@ -198,13 +198,8 @@ impl<'m> RegionGrower<'m> {
         }
         missed.sort_unstable();
         let mut vertices = queue[..head].to_vec();
-        let mut faces: Vec<u32> = vertices
-            .iter()
-            .flat_map(|&v| self.topology.faces_of(v).iter().copied())
-            .collect();
+        let faces = self.topology.faces_touching(&vertices);
         vertices.sort_unstable();
-        faces.sort_unstable();
-        faces.dedup();
         Ok(Component {
             center,
             vertices,

@@ -368,6 +368,49 @@ pub struct Detection {
     pub timings: Timings,
 }
 
+impl Detection {
+    /// A detection whose components were found without the paper's embedding (salient regions,
+    /// MSER): no 2-D images, no fronts between keypoints, no proxy; the keypoints in no
+    /// component's list are the unclustered ones.
+    pub fn without_embedding(
+        area: f64,
+        scale: f64,
+        response: Vec<f64>,
+        keypoints: Vec<VertexId>,
+        components: Vec<KeyComponent>,
+        timings: Timings,
+    ) -> Detection {
+        let mut clustered: Vec<VertexId> = components
+            .iter()
+            .flat_map(|c| c.keypoints.iter().copied())
+            .collect();
+        clustered.sort_unstable();
+        let mut unclustered: Vec<VertexId> = keypoints
+            .iter()
+            .copied()
+            .filter(|k| clustered.binary_search(k).is_err())
+            .collect();
+        unclustered.sort_unstable();
+        Detection {
+            area,
+            scale,
+            response,
+            keypoints,
+            embedding: Embedding {
+                points: Vec::new(),
+                stress: 0.0,
+                iterations: 0,
+            },
+            disconnected_pairs: 0,
+            geodesic_vertices: 0,
+            unclustered,
+            components,
+            proxy: None,
+            timings,
+        }
+    }
+}
+
 fn ms(t: Instant) -> f64 {
     t.elapsed().as_secs_f64() * 1e3
 }
@@ -512,14 +555,10 @@ fn salient_detection(
     let found = salient_components(norm, topo, &harris.response, &harris.keypoints, params)?;
     let face_areas = geometry::face_areas(norm);
     let total: f64 = face_areas.iter().sum();
-    let mut clustered = vec![false; norm.num_vertices()];
     let components: Vec<KeyComponent> = found
         .into_iter()
         .enumerate()
         .map(|(id, c)| {
-            for &k in &c.keypoints {
-                clustered[k as usize] = true;
-            }
             let area_fraction: f64 = c.faces.iter().map(|&f| face_areas[f as usize]).sum();
             let at = norm.positions[c.peak as usize];
             KeyComponent {
@@ -539,35 +578,19 @@ fn salient_detection(
             }
         })
         .collect();
-    let mut unclustered: Vec<VertexId> = harris
-        .keypoints
-        .iter()
-        .copied()
-        .filter(|&k| !clustered[k as usize])
-        .collect();
-    unclustered.sort_unstable();
-    let t_cluster = ms(t);
-    Ok(Detection {
+    let timings = Timings {
+        harris: t_harris,
+        cluster: ms(t),
+        ..Timings::default()
+    };
+    Ok(Detection::without_embedding(
         area,
         scale,
-        response: harris.response,
-        keypoints: harris.keypoints,
-        embedding: Embedding {
-            points: Vec::new(),
-            stress: 0.0,
-            iterations: 0,
-        },
-        disconnected_pairs: 0,
-        geodesic_vertices: 0,
-        unclustered,
+        harris.response,
+        harris.keypoints,
         components,
-        proxy: None,
-        timings: Timings {
-            harris: t_harris,
-            cluster: t_cluster,
-            ..Timings::default()
-        },
-    })
+        timings,
+    ))
 }
 
 /// One cluster's key-component, as [`extract_components`] returns it (unit-area units).

@@ -223,13 +223,12 @@ pub fn prominent_peaks(topo: &Topology, field: &[f64], prominence: f64) -> Vec<V
             }
         }
     }
-    let mut peaks: Vec<VertexId> = order
+    let peaks: Vec<VertexId> = order
         .iter()
         .copied()
         .filter(|&v| parent[v as usize] == v && field[v as usize] > 0.0)
         .collect();
-    // `order` is already highest first
-    peaks.dedup();
+    // `order` is already highest first, each vertex once
     peaks
 }
 
@@ -272,12 +271,7 @@ pub fn salient_components(
         vertices.sort_unstable();
         vertices.dedup();
         let reach = vertices.iter().map(|&v| ws.distance(v)).fold(0.0, f64::max);
-        let mut faces: Vec<u32> = vertices
-            .iter()
-            .flat_map(|&v| topo.faces_of(v).iter().copied())
-            .collect();
-        faces.sort_unstable();
-        faces.dedup();
+        let faces = topo.faces_touching(&vertices);
         let mut members: Vec<VertexId> = keypoints
             .iter()
             .copied()

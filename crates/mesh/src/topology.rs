@@ -122,6 +122,17 @@ impl Topology {
         &self.vf[self.vf_offsets[v] as usize..self.vf_offsets[v + 1] as usize]
     }
 
+    /// The faces having a corner among `vertices`, sorted and without repeats.
+    pub fn faces_touching(&self, vertices: &[VertexId]) -> Vec<u32> {
+        let mut faces: Vec<u32> = vertices
+            .iter()
+            .flat_map(|&v| self.faces_of(v).iter().copied())
+            .collect();
+        faces.sort_unstable();
+        faces.dedup();
+        faces
+    }
+
     /// Number of faces on the edge from `v` to each of its neighbours, parallel to
     /// [`Topology::neighbors`]: 1 on a boundary edge, 2 on a manifold interior edge, more on a
     /// non-manifold edge.

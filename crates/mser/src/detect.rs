@@ -65,7 +65,7 @@
 
 use std::time::Instant;
 
-use keycomp_components::{Detection, Embedding, KeyComponent, Timings, min_enclosing_sphere};
+use keycomp_components::{Detection, KeyComponent, Timings, min_enclosing_sphere};
 use keycomp_mesh::{Mesh, Point3, Topology, VertexId, geometry};
 use keycomp_spectral::{Spectrum, SpectrumParams, hks_keypoints};
 use serde::{Deserialize, Serialize};
@@ -495,24 +495,9 @@ impl MserDetection {
         let topo = Topology::new(mesh);
         let face_areas = geometry::face_areas(mesh);
         let total: f64 = face_areas.iter().sum();
-        let mut in_component = vec![false; mesh.num_vertices()];
-        let mut face_mark = vec![false; mesh.num_faces()];
         let mut components = Vec::new();
         for (id, verts) in self.selected(output).into_iter().enumerate() {
-            let mut faces = Vec::new();
-            for &v in verts {
-                in_component[v as usize] = true;
-                for &f in topo.faces_of(v) {
-                    if !face_mark[f as usize] {
-                        face_mark[f as usize] = true;
-                        faces.push(f);
-                    }
-                }
-            }
-            for &f in &faces {
-                face_mark[f as usize] = false;
-            }
-            faces.sort_unstable();
+            let faces = topo.faces_touching(verts);
             let area: f64 = faces.iter().map(|&f| face_areas[f as usize]).sum();
             let points: Vec<Point3<f64>> =
                 verts.iter().map(|&v| mesh.positions[v as usize]).collect();
@@ -545,30 +530,14 @@ impl MserDetection {
                 missed_keypoints: Vec::new(),
             });
         }
-        let mut unclustered: Vec<VertexId> = self
-            .keypoints
-            .iter()
-            .copied()
-            .filter(|&k| !in_component[k as usize])
-            .collect();
-        unclustered.sort_unstable();
-        Ok(Detection {
-            area: self.area,
-            scale: self.scale,
-            response: self.hks.clone(),
-            keypoints: self.keypoints.clone(),
-            embedding: Embedding {
-                points: Vec::new(),
-                stress: 0.0,
-                iterations: 0,
-            },
-            disconnected_pairs: 0,
-            geodesic_vertices: 0,
-            unclustered,
+        Ok(Detection::without_embedding(
+            self.area,
+            self.scale,
+            self.hks.clone(),
+            self.keypoints.clone(),
             components,
-            proxy: None,
-            timings: Timings::default(),
-        })
+            Timings::default(),
+        ))
     }
 }
 
