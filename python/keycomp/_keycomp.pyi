@@ -53,7 +53,7 @@ def detect(
     faces: Optional[npt.ArrayLike] = None,
     *,
     preset: str = "robust",
-    surface: Literal["canonical", "as-read"] = "canonical",
+    surface: Optional[Literal["canonical", "as-read"]] = None,
     density: Optional[float] = None,
     fraction: Optional[float] = None,
     count: Optional[int] = None,
@@ -64,7 +64,8 @@ def detect(
     seed: Optional[int] = None,
 ) -> DetectionResult:
     """Key-components with the parameters of `keycomp detect` (a preset, then options on top), on the
-    canonical surface (the default) or the mesh as given (`surface="as-read"`)."""
+    canonical surface or the mesh as given (`surface="as-read"`); unless told, as `keycomp detect`:
+    canonical with the robust preset, as given with the paper's presets."""
 
 class Match:
     query_component: int

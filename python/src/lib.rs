@@ -253,18 +253,19 @@ impl DetectionResult {
 
 /// Detects key-components (Sipiran & Bustos 2013) with the parameters of `keycomp detect`:
 /// a preset ("robust", the default, or the paper's "kc1", "kc2", "kc3"), then the options
-/// given on top, on the canonical surface (`surface="canonical"`, the default; ids are its
-/// vertices, `DetectionResult.vertices` and `.faces`) or on the mesh as given
-/// (`surface="as-read"`).
+/// given on top, on the canonical surface (`surface="canonical"`; ids are its vertices,
+/// `DetectionResult.vertices` and `.faces`) or on the mesh as given (`surface="as-read"`).
+/// Unless told, as `keycomp detect`: the canonical surface with the robust preset, the mesh as
+/// given with the paper's.
 #[pyfunction]
-#[pyo3(signature = (mesh, faces=None, *, preset="robust", surface="canonical", density=None, fraction=None, count=None, r=None, t=None, n=None, sigma=None, seed=None))]
+#[pyo3(signature = (mesh, faces=None, *, preset="robust", surface=None, density=None, fraction=None, count=None, r=None, t=None, n=None, sigma=None, seed=None))]
 #[allow(clippy::too_many_arguments)]
 fn detect(
     py: Python<'_>,
     mesh: &Bound<'_, PyAny>,
     faces: Option<&Bound<'_, PyAny>>,
     preset: &str,
-    surface: &str,
+    surface: Option<&str>,
     density: Option<f64>,
     fraction: Option<f64>,
     count: Option<usize>,
@@ -279,7 +280,7 @@ fn detect(
             "unknown preset '{preset}' (robust, kc1, kc2 or kc3)"
         ))
     })?;
-    let canonical = surface_choice(Some(surface))?.unwrap_or(true);
+    let surface = surface_choice(surface)?;
     let options = DetectOptions {
         preset,
         density,
@@ -292,6 +293,7 @@ fn detect(
         seed,
         ..Default::default()
     };
+    let canonical = surface.unwrap_or_else(|| options.canonical_by_default());
     let input = mesh_input(mesh, faces)?;
     let (json, det, analysed): (String, Detection, Mesh) = py.detach(|| -> PyResult<_> {
         let (mesh, name) = input.load()?;

@@ -68,6 +68,16 @@ def shape(tmp_path_factory):
     return path, v, f
 
 
+def test_a_paper_preset_detects_on_the_mesh_as_given_like_the_cli(shape):
+    path, v, f = shape
+    cli = json.loads(subprocess.run([keycomp_binary(), "detect", str(path), "--json", "--preset", "kc1"],
+                                    check=True, capture_output=True).stdout)
+    det = keycomp.detect(v, f, preset="kc1")
+    assert len(det.vertices) == len(v) == cli["vertices"]
+    assert det.to_dict()["keypoints"] == cli["keypoints"]
+    assert len(keycomp.detect(v, f, preset="kc1", surface="canonical").vertices) != len(v)
+
+
 def test_read_mesh_round_trip(shape):
     path, v, f = shape
     rv, rf = keycomp.read_mesh(path)

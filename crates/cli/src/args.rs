@@ -164,11 +164,11 @@ impl DetectArgs {
         self.preset.unwrap_or(keycomp::options::DEFAULT_PRESET)
     }
 
-    /// Whether the surface analysed, when `--surface` is not given, is the canonical one: yes
-    /// for the robust preset, no for the paper's presets, which select the surface the paper
-    /// used (the mesh as read; a point cloud still gets its canonical surface).
+    /// Whether the surface analysed, when `--surface` is not given, is the canonical one
+    /// ([`DetectOptions::canonical_by_default`] of the detection commands' preset).
     pub fn canonical_by_default(&self) -> bool {
-        !self.detection_preset().is_paper()
+        self.options_with(self.detection_preset())
+            .canonical_by_default()
     }
 
     /// The preset of the retrieval commands: the one given, else the default.

@@ -106,6 +106,14 @@ impl Default for DetectOptions {
 }
 
 impl DetectOptions {
+    /// Whether the surface analysed, when none is asked for, is the canonical one: yes for the
+    /// robust preset, no for the paper's presets, which select the surface the paper used (the
+    /// mesh as read; a point cloud still gets its canonical surface): their budget of 1 % of
+    /// the vertices measures the file's tessellation.
+    pub fn canonical_by_default(&self) -> bool {
+        !self.preset.is_paper()
+    }
+
     /// The Harris parameters: `base` with the selection and neighbourhood options on top.
     pub fn harris(&self, mut base: HarrisParams) -> HarrisParams {
         if let Some(d) = self.density {
