@@ -440,25 +440,45 @@ fn fill_small_holes(mesh: &Mesh, max_perimeter: f64) -> Mesh {
 
 /// Whether two pieces of `kept` (pieces by vertex `label`) touch or cross: samples every `gap`
 /// on each piece, one of which then lies within `gap` of another piece's faces, searched in
-/// `closest`, built on `kept` with faces appended (the fans that close small holes). Too many
-/// samples count as touching (the mesh is then reconstructed).
+/// `closest`, built on `kept` with faces appended (the fans that close small holes). Only faces
+/// with another piece's face within `gap` of their circumscribing ball are sampled: no point of
+/// any other face can be that near another piece.
 fn pieces_touch(kept: &Mesh, label: &[u32], closest: &closest::ClosestPoint, gap: f64) -> bool {
     let face_piece: Vec<u32> = kept.faces.iter().map(|t| label[t[0] as usize]).collect();
-    let Ok(samples) = sample::lattice(kept, &vec![false; kept.faces.len()], gap) else {
-        return true;
+    let near_other = |p: &Point3<f64>, own: u32, within: f64| {
+        closest
+            .nearest_among(p, within, |g| {
+                face_piece.get(g as usize).is_some_and(|&q| q != own)
+            })
+            .is_some()
     };
-    samples
-        .positions
+    let candidates: Vec<[u32; 3]> = kept
+        .faces
         .par_iter()
-        .zip(&samples.faces)
-        .any(|(p, &f)| {
-            let own = face_piece[f as usize];
-            closest
-                .nearest_among(p, gap, |g| {
-                    face_piece.get(g as usize).is_some_and(|&q| q != own)
-                })
-                .is_some()
+        .zip(&face_piece)
+        .filter(|&(t, &own)| {
+            let [a, b, c] = t.map(|v| kept.positions[v as usize]);
+            let centre = Point3::from((a.coords + b.coords + c.coords) / 3.0);
+            let reach = [a, b, c]
+                .iter()
+                .map(|v| (v - centre).norm())
+                .fold(0.0, f64::max);
+            near_other(&centre, own, reach + gap)
         })
+        .map(|(t, _)| *t)
+        .collect();
+    // each candidate sampled on its own, the first sample near another piece ends the search
+    candidates.par_iter().any(|t| {
+        let own = label[t[0] as usize];
+        let (mut stack, mut points) = (Vec::new(), Vec::new());
+        sample::bisected(
+            t.map(|v| kept.positions[v as usize]),
+            gap,
+            &mut stack,
+            &mut points,
+        );
+        points.iter().any(|p| near_other(p, own, gap))
+    })
 }
 
 /// The offset-volume reconstruction of `input` (steps 1–5 of the module docs), its spacing

@@ -7,6 +7,8 @@
 //! cube of side s/2 (the first in input order), so that a finely tessellated input costs no
 //! more than a coarse one beyond reading it.
 
+use std::collections::HashSet;
+
 use keycomp_mesh::{Mesh, Point3, Vector3};
 
 use crate::error::SurfaceError;
@@ -31,8 +33,8 @@ pub const MAX_RAW_SAMPLES: usize = 40_000_000;
 /// Samples of `mesh` at spacing `s`, faces wound as `flip` says (see the module docs).
 pub fn lattice(mesh: &Mesh, flip: &[bool], s: f64) -> Result<Samples, SurfaceError> {
     let mut out = Samples::default();
-    let s2 = s * s;
-    let mut stack: Vec<[Point3<f64>; 3]> = Vec::new();
+    let mut stack = Vec::new();
+    let mut points = Vec::new();
     for (f, _) in mesh.faces.iter().enumerate() {
         let [a, b, c] = mesh.triangle(f);
         let n = (b - a).cross(&(c - a));
@@ -45,46 +47,67 @@ pub fn lattice(mesh: &Mesh, flip: &[bool], s: f64) -> Result<Samples, SurfaceErr
         } else {
             n / len
         };
-        stack.push([a, b, c]);
-        while let Some([a, b, c]) = stack.pop() {
-            let (ab, bc, ca) = (
-                (b - a).norm_squared(),
-                (c - b).norm_squared(),
-                (a - c).norm_squared(),
-            );
-            let longest = ab.max(bc).max(ca);
-            if longest <= s2 {
-                out.positions
-                    .push(Point3::from((a.coords + b.coords + c.coords) / 3.0));
-                out.normals.push(n);
-                out.faces.push(f as u32);
-                if out.positions.len() > MAX_RAW_SAMPLES {
-                    return Err(SurfaceError::Params(format!(
-                        "the input needs more than {MAX_RAW_SAMPLES} samples at spacing {s:e}"
-                    )));
-                }
-                continue;
-            }
-            // bisect the longest edge; both halves keep the winding. Edges equal up to
-            // rounding count as equal, the first in the order ab, bc, ca taken, so that a
-            // moved or scaled copy is sampled alike.
-            let tie = longest * (1.0 - TIE);
-            if ab >= tie {
-                let m = Point3::from((a.coords + b.coords) / 2.0);
-                stack.push([a, m, c]);
-                stack.push([m, b, c]);
-            } else if bc >= tie {
-                let m = Point3::from((b.coords + c.coords) / 2.0);
-                stack.push([a, b, m]);
-                stack.push([a, m, c]);
-            } else {
-                let m = Point3::from((c.coords + a.coords) / 2.0);
-                stack.push([a, b, m]);
-                stack.push([m, b, c]);
-            }
+        points.clear();
+        bisected([a, b, c], s, &mut stack, &mut points);
+        for &p in &points {
+            out.positions.push(p);
+            out.normals.push(n);
+            out.faces.push(f as u32);
+        }
+        if out.positions.len() > MAX_RAW_SAMPLES {
+            return Err(SurfaceError::Params(format!(
+                "the input needs more than {MAX_RAW_SAMPLES} samples at spacing {s:e}"
+            )));
         }
     }
     Ok(thin(out, 0.5 * s))
+}
+
+/// Appends to `points` the centroids of triangle `t` split by longest-edge bisection until no
+/// edge is longer than `s` (the module docs), in a fixed order; `stack` is scratch space.
+/// Stops early once `points` holds more than [`MAX_RAW_SAMPLES`].
+pub fn bisected(
+    t: [Point3<f64>; 3],
+    s: f64,
+    stack: &mut Vec<[Point3<f64>; 3]>,
+    points: &mut Vec<Point3<f64>>,
+) {
+    let s2 = s * s;
+    stack.clear();
+    stack.push(t);
+    while let Some([a, b, c]) = stack.pop() {
+        let (ab, bc, ca) = (
+            (b - a).norm_squared(),
+            (c - b).norm_squared(),
+            (a - c).norm_squared(),
+        );
+        let longest = ab.max(bc).max(ca);
+        // a NaN never compares: such a triangle gives its centroid
+        if longest <= s2 || longest.is_nan() {
+            points.push(Point3::from((a.coords + b.coords + c.coords) / 3.0));
+            if points.len() > MAX_RAW_SAMPLES {
+                return;
+            }
+            continue;
+        }
+        // bisect the longest edge; both halves keep the winding. Edges equal up to
+        // rounding count as equal, the first in the order ab, bc, ca taken, so that a
+        // moved or scaled copy is sampled alike.
+        let tie = longest * (1.0 - TIE);
+        if ab >= tie {
+            let m = Point3::from((a.coords + b.coords) / 2.0);
+            stack.push([a, m, c]);
+            stack.push([m, b, c]);
+        } else if bc >= tie {
+            let m = Point3::from((b.coords + c.coords) / 2.0);
+            stack.push([a, b, m]);
+            stack.push([a, m, c]);
+        } else {
+            let m = Point3::from((c.coords + a.coords) / 2.0);
+            stack.push([a, b, m]);
+            stack.push([m, b, c]);
+        }
+    }
 }
 
 /// Relative difference below which two squared edge lengths count as equal.
@@ -107,16 +130,11 @@ pub fn thin(samples: Samples, cell: f64) -> Samples {
             ((p.z - min.z) / cell).floor() as i64,
         ]
     };
-    let mut order: Vec<([i64; 3], u32)> = samples
-        .positions
-        .iter()
-        .enumerate()
-        .map(|(i, p)| (key(p), i as u32))
+    // the first sample of each cube, in one pass: O(n) expected
+    let mut seen: HashSet<[i64; 3]> = HashSet::with_capacity(samples.positions.len() / 4);
+    let keep: Vec<u32> = (0..samples.positions.len() as u32)
+        .filter(|&i| seen.insert(key(&samples.positions[i as usize])))
         .collect();
-    order.sort_unstable();
-    order.dedup_by_key(|e| e.0);
-    let mut keep: Vec<u32> = order.into_iter().map(|e| e.1).collect();
-    keep.sort_unstable();
     Samples {
         positions: keep
             .iter()
