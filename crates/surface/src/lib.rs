@@ -273,8 +273,10 @@ pub fn canonical_at(
     reconstruction(input, params, density)
 }
 
-/// Rounds of remeshing ([`remesh`](mod@remesh)) of a canonical surface.
-pub const REMESH_ROUNDS: usize = 8;
+/// Rounds of remeshing ([`remesh`](mod@remesh)) of a canonical surface: the low end of the
+/// 5–10 Botsch and Kobbelt use, as split and collapse settle the vertex count within a few
+/// rounds and every further round costs as much as the first.
+pub const REMESH_ROUNDS: usize = 5;
 
 /// The most faces remeshing may make for `target` vertices from a start of `faces` faces
 /// ([`remesh::RemeshParams::max_faces`]): eight times the target's faces beyond the start's.
