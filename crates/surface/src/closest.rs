@@ -10,6 +10,7 @@
 
 use keycomp_mesh::{Mesh, Point3};
 
+use crate::directed::Directed;
 use crate::trim::closest_on_triangle;
 
 /// Most triangles in a leaf.
@@ -224,17 +225,13 @@ impl ClosestPoint {
             (a.inf(&b).inf(&c), a.sup(&b).sup(&c))
         });
         // boundary edges: directed edges whose reverse no face has
-        let mut edges: Vec<(u32, u32)> = mesh
+        let directed = Directed::new(mesh);
+        let segments: Vec<[Point3<f64>; 2]> = mesh
             .faces
             .iter()
             .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
-            .collect();
-        edges.sort_unstable();
-        let has = |a: u32, b: u32| edges.binary_search(&(a, b)).is_ok();
-        let segments: Vec<[Point3<f64>; 2]> = edges
-            .iter()
-            .filter(|&&(a, b)| !has(b, a))
-            .map(|&(a, b)| [mesh.positions[a as usize], mesh.positions[b as usize]])
+            .filter(|&(a, b)| directed.find(b, a).is_none())
+            .map(|(a, b)| [mesh.positions[a as usize], mesh.positions[b as usize]])
             .collect();
         let boundary = Tree::new(segments.len(), |i| {
             let [a, b] = segments[i];

@@ -80,6 +80,7 @@
 //! random numbers, and parallel loops write disjoint slices.
 
 pub mod closest;
+mod directed;
 mod error;
 pub mod nets;
 pub mod normals;
@@ -395,16 +396,13 @@ pub const HOLE_PERIMETER: f64 = 6.0;
 fn fill_small_holes(mesh: &Mesh, max_perimeter: f64) -> Mesh {
     // the hole side of a boundary edge (a, b) of a face is (b, a); each boundary vertex of a
     // vertex-manifold mesh starts one such edge
-    let mut directed: Vec<(u32, u32)> = mesh
-        .faces
-        .iter()
-        .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
-        .collect();
-    directed.sort_unstable();
+    let directed = directed::Directed::new(mesh);
     let mut hole_next: std::collections::BTreeMap<u32, u32> = Default::default();
-    for &(a, b) in &directed {
-        if directed.binary_search(&(b, a)).is_err() {
-            hole_next.insert(b, a);
+    for t in &mesh.faces {
+        for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
+            if directed.find(b, a).is_none() {
+                hole_next.insert(b, a);
+            }
         }
     }
     let mut out = mesh.clone();

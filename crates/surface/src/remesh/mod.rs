@@ -150,22 +150,44 @@ pub(crate) fn remesh(mut he: HalfEdges, params: &RemeshParams, target: &ClosestP
             }
         }
         // 3. flip towards valence 6 (4 on a boundary)
+        // valences kept up to date by each flip: the cheap test first, the link's last
+        let mut valence = vec![0u32; he.pos.len()];
+        for v in he.live_vertices() {
+            valence[v as usize] = he.valence(v) as u32;
+        }
         for h in he.live_edges() {
-            if he.edge_dead[h as usize] || !he.can_flip(h) {
+            if he.edge_dead[h as usize]
+                || he.is_boundary_edge(h)
+                || !flip_is_good(&he, h, &valence)
+                || !he.can_flip(h)
+            {
                 continue;
             }
-            if flip_is_good(&he, h) {
-                he.flip(h);
-            }
+            let [a, b, c, d] = flip_quad(&he, h);
+            he.flip(h);
+            valence[a as usize] -= 1;
+            valence[b as usize] -= 1;
+            valence[c as usize] += 1;
+            valence[d as usize] += 1;
         }
         // 4. relax and 5. project, every vertex from the same state
         let live: Vec<u32> = he.live_vertices().collect();
+        let normals: Vec<Vector3<f64>> = (0..he.face_he.len() as u32)
+            .into_par_iter()
+            .map(|f| {
+                if he.face_dead[f as usize] {
+                    Vector3::zeros()
+                } else {
+                    he.face_normal(f)
+                }
+            })
+            .collect();
         let moved: Vec<(u32, Point3<f64>, u32)> = live
             .par_iter()
             .map_init(Vec::new, |ring, &v| {
                 let boundary = he.is_boundary_vertex(v);
                 let p = he.pos[v as usize];
-                let relaxed = relaxed(&he, v, boundary, ring);
+                let relaxed = relaxed(&he, v, boundary, ring, &normals);
                 let (q, f) = project(target, &relaxed, boundary, hints[v as usize]);
                 if q.iter().all(|c| c.is_finite()) {
                     (v, q, f)
@@ -182,9 +204,16 @@ pub(crate) fn remesh(mut he: HalfEdges, params: &RemeshParams, target: &ClosestP
     he.to_mesh()
 }
 
-/// Where relaxation moves `v`: towards the centroid of its neighbours in its tangent plane, or
-/// for a boundary vertex towards the middle of its two boundary neighbours.
-fn relaxed(he: &HalfEdges, v: u32, boundary: bool, ring: &mut Vec<u32>) -> Point3<f64> {
+/// Where relaxation moves `v`: towards the centroid of its neighbours in its tangent plane (the
+/// sum of its faces' `normals`, per face, area-weighted), or for a boundary vertex towards the
+/// middle of its two boundary neighbours.
+fn relaxed(
+    he: &HalfEdges,
+    v: u32,
+    boundary: bool,
+    ring: &mut Vec<u32>,
+    normals: &[Vector3<f64>],
+) -> Point3<f64> {
     let p = he.pos[v as usize];
     if boundary {
         let [prev, next] = boundary_neighbours(he, v);
@@ -202,7 +231,14 @@ fn relaxed(he: &HalfEdges, v: u32, boundary: bool, ring: &mut Vec<u32>) -> Point
         .iter()
         .fold(Vector3::zeros(), |s, &w| s + he.pos[w as usize].coords)
         / ring.len() as f64;
-    let n = he.vertex_normal(v).try_normalize(0.0);
+    let mut n = Vector3::zeros();
+    he.around(v, |h| {
+        let f = he.face[h as usize];
+        if f != NONE {
+            n += normals[f as usize];
+        }
+    });
+    let n = n.try_normalize(0.0);
     let d = c - p.coords;
     match n {
         Some(n) => p + (d - n * n.dot(&d)),
@@ -296,16 +332,25 @@ fn collapse_is_good(
     ok
 }
 
-/// Whether flipping inner edge `h` brings the valences of its four vertices closer to their
-/// ideal (6 inside, 4 on a boundary) and turns neither face over.
-fn flip_is_good(he: &HalfEdges, h: u32) -> bool {
+/// The vertices of inner edge `h` and of its two faces: its tail a, its head b, the third
+/// corner c of its face and d of its twin's.
+fn flip_quad(he: &HalfEdges, h: u32) -> [u32; 4] {
     let t = he.twin[h as usize];
-    let (a, b) = (he.from(h), he.to[h as usize]);
-    let c = he.to[he.next[h as usize] as usize];
-    let d = he.to[he.next[t as usize] as usize];
+    [
+        he.from(h),
+        he.to[h as usize],
+        he.to[he.next[h as usize] as usize],
+        he.to[he.next[t as usize] as usize],
+    ]
+}
+
+/// Whether flipping inner edge `h` brings the valences of its four vertices (`valence`, per
+/// vertex) closer to their ideal (6 inside, 4 on a boundary) and turns neither face over.
+fn flip_is_good(he: &HalfEdges, h: u32, valence: &[u32]) -> bool {
+    let [a, b, c, d] = flip_quad(he, h);
     let ideal = |v: u32| if he.is_boundary_vertex(v) { 4 } else { 6 };
     let dev = |v: u32, delta: i64| {
-        let x = he.valence(v) as i64 + delta - ideal(v);
+        let x = valence[v as usize] as i64 + delta - ideal(v);
         x * x
     };
     let before = dev(a, 0) + dev(b, 0) + dev(c, 0) + dev(d, 0);
