@@ -74,8 +74,17 @@ fn check_consistency(r: &Value, class_of: &dyn Fn(&str) -> String) {
             let mut nn_sum = 0.0;
             let mut ap_sum = 0.0;
             let mut defined = 0;
+            let mut verified = 0;
             for q in qs {
                 let m = &q[method];
+                // candidate recall: recorded for key-components' queries with a source only
+                match (method, q["source"].is_null()) {
+                    ("key_components", false) => {
+                        let v = m["source_verified"].as_bool().expect("source_verified");
+                        verified += usize::from(v);
+                    }
+                    _ => assert!(m["source_verified"].is_null(), "{q}"),
+                }
                 let top = m["top"].as_array().unwrap();
                 assert!(!top.is_empty() && top.len() <= 5);
                 if q["source"].is_null() {
@@ -111,6 +120,11 @@ fn check_consistency(r: &Value, class_of: &dyn Fn(&str) -> String) {
             }
             let summary = &set[method];
             assert_eq!(summary["queries"].as_u64().unwrap(), defined);
+            if method == "key_components" && qs.iter().any(|q| !q["source"].is_null()) {
+                assert_eq!(summary["source_verified"].as_u64(), Some(verified as u64));
+            } else {
+                assert!(summary["source_verified"].is_null());
+            }
             if defined > 0 {
                 let d = defined as f64;
                 assert!((f(&summary["mean"]["nn"]) - nn_sum / d).abs() < 1e-9);

@@ -32,8 +32,17 @@ pub(super) struct Setting<'a> {
     pub(super) files: &'a [PathBuf],
 }
 
+/// A query's key-component ranking: collection indices, best first, and those among them
+/// that geometric verification measured (the shortlist: candidate recall is whether the
+/// source is among them).
+#[derive(Debug, Clone, Default)]
+pub(super) struct KcRanking {
+    pub(super) order: Vec<usize>,
+    pub(super) verified: Vec<usize>,
+}
+
 /// Key-component ranking of the collection for one query, its records one per scale
-/// hypothesis (indices into the collection).
+/// hypothesis.
 pub(super) fn kc_ranking(
     reader: &Reader,
     records: &[ShapeRecord<DIM>],
@@ -41,9 +50,9 @@ pub(super) fn kc_ranking(
     match_params: &MatchParams,
     verify: Option<f64>,
     canonical: bool,
-) -> Result<Vec<usize>> {
+) -> Result<KcRanking> {
     let Some(record) = records.first() else {
-        return Ok(Vec::new());
+        return Ok(KcRanking::default());
     };
     let match_params = &MatchParams {
         verify_weight: keycomp_retrieval::verify_weight_for(
@@ -55,7 +64,7 @@ pub(super) fn kc_ranking(
         ..*match_params
     };
     if record.components.is_empty() {
-        return Ok(Vec::new());
+        return Ok(KcRanking::default());
     }
     let parts: Vec<_> = records
         .iter()
@@ -84,10 +93,15 @@ pub(super) fn kc_ranking(
         )
         .collect();
     let ranked = rank_hypotheses(reader, &views, index_of.len(), match_params)?;
-    Ok(ranked
-        .iter()
-        .filter_map(|r| index_of.get(&r.path).copied())
-        .collect())
+    let at = |r: &keycomp_retrieval::Ranked| index_of.get(&r.path).copied();
+    Ok(KcRanking {
+        order: ranked.iter().filter_map(at).collect(),
+        verified: ranked
+            .iter()
+            .filter(|r| r.result.verified.is_some())
+            .filter_map(at)
+            .collect(),
+    })
 }
 
 /// A query's key-component answer: the shapes ranked ([`kc_ranking`]), its component count
@@ -100,13 +114,13 @@ pub(super) fn kc_answer(
     match_params: &MatchParams,
     verify: Option<f64>,
     canonical: bool,
-) -> Result<(Vec<usize>, usize, Option<String>)> {
+) -> Result<(KcRanking, usize, Option<String>)> {
     Ok(match rec {
         Ok(r) => (
             kc_ranking(reader, r, index_of, match_params, verify, canonical)?,
             r.first().map_or(0, |r| r.components.len()),
             None,
         ),
-        Err(e) => (Vec::new(), 0, Some(output::error_chain(e))),
+        Err(e) => (KcRanking::default(), 0, Some(output::error_chain(e))),
     })
 }

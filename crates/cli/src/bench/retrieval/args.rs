@@ -27,7 +27,9 @@ each mesh's own area ('FPFH BoW', scale-free) and once with the collection's med
 ('FPFH BoW units', file units: fragments keep their source's scale). Prints NN, FT, ST, E,
 DCG and mAP (Princeton Shape Benchmark definitions) and, for partial queries, the mean rank of
 the source shape and how often it is first, among the first three, and ahead of every shape
-of another class ('source ahead': `--partial plane --area 0.5,0.5` measures halves). With
+of another class ('source ahead': `--partial plane --area 0.5,0.5` measures halves), and how
+often key-components' geometric verification measured it ('source verified': the candidate
+recall of its shortlist). With
 --queries DIR --truth CSV (lines query,source[,class]), the files of DIR named there are one
 more query set, 'external' (real scans, point clouds, other tessellations). Writes
 OUT/results.json, OUT/pr-<queries>.svg (precision-recall), OUT/fragments/*.off and OUT/index;

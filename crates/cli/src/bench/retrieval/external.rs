@@ -10,7 +10,7 @@ use rayon::prelude::*;
 
 use super::answer::{Setting, kc_answer};
 use super::args::sub_seed;
-use super::results::{QueryResult, method_result};
+use super::results::{MethodResult, QueryResult, method_result};
 use crate::progress::progress;
 
 /// The results of the external queries, in the order of `truth`.
@@ -63,7 +63,7 @@ pub(super) fn external_query(t: &Truth, q: usize, s: &Setting<'_>) -> Result<Que
                 .records(&t.query, hash, s.params, Role::Query)
                 .map(|(r, _)| r)
         });
-    let (returned, components, error) = kc_answer(
+    let (ranking, components, error) = kc_answer(
         &rec,
         s.reader,
         s.index_of,
@@ -92,15 +92,18 @@ pub(super) fn external_query(t: &Truth, q: usize, s: &Setting<'_>) -> Result<Que
         cut: None,
         components,
         error,
-        key_components: result(
-            &complete_ranking(
-                &returned,
-                n,
-                None,
-                sub_seed(seed, "external-tail", q as u64),
-            ),
-            returned.len(),
-        ),
+        key_components: MethodResult {
+            source_verified: Some(ranking.verified.contains(&src)),
+            ..result(
+                &complete_ranking(
+                    &ranking.order,
+                    n,
+                    None,
+                    sub_seed(seed, "external-tail", q as u64),
+                ),
+                ranking.order.len(),
+            )
+        },
         baselines: by_baseline,
         random: result(
             &complete_ranking(&[], n, None, sub_seed(seed, "external-random", q as u64)),

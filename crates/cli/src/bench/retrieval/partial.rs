@@ -22,7 +22,7 @@ use rayon::prelude::*;
 use super::answer::{Setting, kc_answer};
 use super::args::{Queries, stem, sub_seed};
 use super::repeatability::{Repeatability, partial_repeatability};
-use super::results::{QueryResult, method_result};
+use super::results::{MethodResult, QueryResult, method_result};
 use crate::progress::progress;
 
 /// The partial queries' results by kind, and each fragment's repeatability (with
@@ -143,7 +143,7 @@ pub(super) fn queries(s: &Setting<'_>, kinds: &[PartialKind]) -> Result<Partial>
         if let Some(r) = rep {
             repeatability.push((kind.name(), fraction, r));
         }
-        let (returned, components, error) = kc_answer(
+        let (ranking, components, error) = kc_answer(
             &rec,
             reader,
             index_of,
@@ -151,8 +151,9 @@ pub(super) fn queries(s: &Setting<'_>, kinds: &[PartialKind]) -> Result<Partial>
             args.verify_weight,
             params.surface.is_some(),
         )?;
+        let returned = &ranking.order;
         let kc_order = complete_ranking(
-            &returned,
+            returned,
             n,
             None,
             sub_seed(args.seed, &format!("{kind}-tail"), *q as u64),
@@ -176,14 +177,10 @@ pub(super) fn queries(s: &Setting<'_>, kinds: &[PartialKind]) -> Result<Partial>
             cut: Some(detail),
             components,
             error,
-            key_components: method_result(
-                &kc_order,
-                returned.len(),
-                class,
-                classes,
-                names,
-                Some(src),
-            ),
+            key_components: MethodResult {
+                source_verified: Some(ranking.verified.contains(&src)),
+                ..method_result(&kc_order, returned.len(), class, classes, names, Some(src))
+            },
             baselines: by_baseline,
             random: method_result(
                 &complete_ranking(

@@ -135,6 +135,23 @@ pub(super) fn report_text(
             )?;
         }
     }
+    // candidate recall: the partial queries whose source reached verification
+    let recall: Vec<String> = r
+        .query_sets
+        .iter()
+        .filter_map(|set| {
+            set.key_components
+                .source_verified
+                .map(|v| format!("{} {v} of {}", set.name, set.queries))
+        })
+        .collect();
+    if !recall.is_empty() {
+        writeln!(
+            s,
+            "\nsource verified (key-components: the source reached geometric verification's shortlist): {}",
+            recall.join(", ")
+        )?;
+    }
     // the queries key-components answer
     writeln!(
         s,

@@ -25,6 +25,10 @@ pub(super) struct MethodResult {
     /// queries): with a score per shape, the source scores higher than any of them.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub(super) source_ahead: Option<bool>,
+    /// Whether geometric verification measured the source shape (key-components' partial
+    /// queries with verification on: the source reached the shortlist).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub(super) source_verified: Option<bool>,
     /// The first five results (file stems).
     pub(super) top: Vec<String>,
     pub(super) nn: Option<f64>,
@@ -89,6 +93,10 @@ pub(super) struct MethodSummary {
     /// Partial queries whose source shape is ranked ahead of every shape of another class.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub(super) source_ahead: Option<usize>,
+    /// Partial queries whose source shape geometric verification measured (candidate recall;
+    /// key-components only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub(super) source_verified: Option<usize>,
 }
 
 #[derive(Debug, Serialize)]
@@ -165,6 +173,7 @@ pub(super) fn method_result(
                 .unwrap_or(usize::MAX);
             at < other
         }),
+        source_verified: None,
         top: order.iter().take(5).map(|&j| names[j].clone()).collect(),
         nn: scores.as_ref().map(|s| s.nn),
         ft: scores.as_ref().map(|s| s.ft),
@@ -196,6 +205,15 @@ pub(super) fn summarize_method(
                 .filter(|r| pick(r).source_ahead == Some(true))
                 .count()
         }),
+        source_verified: results
+            .iter()
+            .any(|r| pick(r).source_verified.is_some())
+            .then(|| {
+                results
+                    .iter()
+                    .filter(|r| pick(r).source_verified == Some(true))
+                    .count()
+            }),
     }
 }
 

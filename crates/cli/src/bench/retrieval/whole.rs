@@ -53,7 +53,8 @@ pub(super) fn queries(s: &Setting<'_>, records: &[ShapeRecord<DIM>]) -> Result<V
                 match_params,
                 args.verify_weight,
                 params.surface.is_some(),
-            )?;
+            )?
+            .order;
             let kc_order = complete_ranking(
                 &returned,
                 n,
