@@ -115,21 +115,18 @@ impl Tree {
     }
 
     /// The item nearest `p` by `distance2(item) → (squared distance, point)`, searching only
-    /// within squared distance `bound` (infinity for no bound); `seed`, an item already
-    /// measured, bounds the search from the start (the answer is the same without it, but for
-    /// which of two equally near items is kept).
+    /// within squared distance `bound` (infinity for no bound).
     fn nearest(
         &self,
         p: &Point3<f64>,
         bound: f64,
-        seed: Option<(u32, Point3<f64>, f64)>,
         distance2: impl Fn(u32) -> (f64, Point3<f64>),
     ) -> Option<(u32, Point3<f64>, f64)> {
         if self.nodes.is_empty() {
             return None;
         }
-        let mut best = seed.filter(|s| s.2 < bound);
-        let mut limit = best.map_or(bound, |b| b.2);
+        let mut best: Option<(u32, Point3<f64>, f64)> = None;
+        let mut limit = bound;
         // depth-first, at most one pending sibling per level of a tree of depth ≤ 32
         let mut stack = [(0.0, 0u32); 64];
         stack[0] = (box_distance2(&self.nodes[0], p), 0);
@@ -250,23 +247,6 @@ impl ClosestPoint {
         self.nearest_among(p, f64::INFINITY, |_| true)
     }
 
-    /// The nearest point of the faces to `p`, searched from face `hint` (a face near `p`, such
-    /// as where a point that moved a little was last): the same distance as
-    /// [`ClosestPoint::nearest`], found in a fraction of its time when the hint is close, as
-    /// its distance prunes the search from the start. An out-of-range hint is ignored.
-    pub fn nearest_from(&self, p: &Point3<f64>, hint: u32) -> Option<Hit> {
-        let seed = self.triangles.get(hint as usize).map(|t| {
-            let q = closest_on_triangle(p, t);
-            (hint, q, (q - p).norm_squared())
-        });
-        self.faces
-            .nearest(p, f64::INFINITY, seed.filter(|s| s.2.is_finite()), |i| {
-                let q = closest_on_triangle(p, &self.triangles[i as usize]);
-                ((q - p).norm_squared(), q)
-            })
-            .map(Hit::from)
-    }
-
     /// The nearest point to `p` of the faces `keep` accepts, if one lies within `within`.
     pub fn nearest_among(
         &self,
@@ -275,7 +255,7 @@ impl ClosestPoint {
         keep: impl Fn(u32) -> bool,
     ) -> Option<Hit> {
         self.faces
-            .nearest(p, within * within, None, |i| {
+            .nearest(p, within * within, |i| {
                 if keep(i) {
                     let q = closest_on_triangle(p, &self.triangles[i as usize]);
                     ((q - p).norm_squared(), q)
@@ -290,7 +270,7 @@ impl ClosestPoint {
     /// The nearest point of the boundary edges to `p` (none for a closed mesh).
     pub fn on_boundary(&self, p: &Point3<f64>) -> Option<Hit> {
         self.boundary
-            .nearest(p, f64::INFINITY, None, |i| {
+            .nearest(p, f64::INFINITY, |i| {
                 let q = closest_on_segment(p, &self.segments[i as usize]);
                 ((q - p).norm_squared(), q)
             })
@@ -345,10 +325,6 @@ mod tests {
                 hit.distance
             );
             assert!(((hit.point - p).norm() - hit.distance).abs() < 1e-12);
-            // from any hint, in range or not: the same distance
-            let hint = rng.random_range(0..mesh.faces.len() as u32 + 10);
-            let from = cp.nearest_from(&p, hint).expect("faces");
-            assert!((from.distance - scan).abs() < 1e-12, "hint {hint}");
         }
         assert!(!cp.has_boundary());
         assert!(cp.on_boundary(&Point3::origin()).is_none());

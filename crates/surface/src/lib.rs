@@ -468,17 +468,18 @@ fn pieces_touch(kept: &Mesh, label: &[u32], closest: &closest::ClosestPoint, gap
         .map(|(t, _)| *t)
         .collect();
     // each candidate sampled on its own, the first sample near another piece ends the search
-    candidates.par_iter().any(|t| {
-        let own = label[t[0] as usize];
-        let (mut stack, mut points) = (Vec::new(), Vec::new());
-        sample::bisected(
-            t.map(|v| kept.positions[v as usize]),
-            gap,
-            &mut stack,
-            &mut points,
-        );
-        points.iter().any(|p| near_other(p, own, gap))
-    })
+    candidates
+        .par_iter()
+        .map_init(
+            || (Vec::new(), Vec::new()),
+            |(stack, points), t| {
+                points.clear();
+                sample::bisected(t.map(|v| kept.positions[v as usize]), gap, stack, points);
+                let own = label[t[0] as usize];
+                points.iter().any(|p| near_other(p, own, gap))
+            },
+        )
+        .any(|near| near)
 }
 
 /// The offset-volume reconstruction of `input` (steps 1–5 of the module docs), its spacing

@@ -34,7 +34,7 @@ pub(crate) mod halfedge;
 use keycomp_mesh::{Mesh, Point3, Vector3};
 use rayon::prelude::*;
 
-use crate::closest::{ClosestPoint, Hit};
+use crate::closest::ClosestPoint;
 pub(crate) use halfedge::HalfEdges;
 use halfedge::NONE;
 
@@ -51,43 +51,17 @@ pub struct RemeshParams {
 }
 
 /// The nearest point of `target` to `p`: of its boundary edges when `boundary` (and it has
-/// any), else of its faces, searched from face `hint` (see [`ClosestPoint::nearest_from`]);
-/// `p` itself if there is none or it is not finite. With it the face it lies on (`hint` for a
-/// point on a boundary edge or left in place).
-fn project(
-    target: &ClosestPoint,
-    p: &Point3<f64>,
-    boundary: bool,
-    hint: u32,
-) -> (Point3<f64>, u32) {
+/// any), else of its faces; `p` itself if there is none or it is not finite.
+fn project(target: &ClosestPoint, p: &Point3<f64>, boundary: bool) -> Point3<f64> {
     let hit = if boundary {
-        target
-            .on_boundary(p)
-            .map(|h| Hit { item: hint, ..h })
-            .or_else(|| target.nearest_from(p, hint))
+        target.on_boundary(p).or_else(|| target.nearest(p))
     } else {
-        target.nearest_from(p, hint)
+        target.nearest(p)
     };
-    match hit {
-        Some(h) if h.point.iter().all(|c| c.is_finite()) => (h.point, h.item),
-        _ => (*p, hint),
+    match hit.map(|h| h.point) {
+        Some(q) if q.iter().all(|c| c.is_finite()) => q,
+        _ => *p,
     }
-}
-
-/// For each vertex of `he`, a face of the input it lies on or near, where its projection's
-/// search starts: the first face around it (`he` is built from the input's own faces, in
-/// their order), [`NONE`] for a vertex without faces.
-fn first_faces(he: &HalfEdges) -> Vec<u32> {
-    let mut hints = vec![NONE; he.pos.len()];
-    for v in he.live_vertices() {
-        he.around(v, |h| {
-            let f = he.face[h as usize];
-            if f != NONE && (hints[v as usize] == NONE || f < hints[v as usize]) {
-                hints[v as usize] = f;
-            }
-        });
-    }
-    hints
 }
 
 /// Remeshes the mesh of `he` (built from an edge- and vertex-manifold, consistently oriented
@@ -97,7 +71,6 @@ pub(crate) fn remesh(mut he: HalfEdges, params: &RemeshParams, target: &ClosestP
     let l = params.edge;
     let (hi2, lo2) = ((4.0 / 3.0 * l).powi(2), (4.0 / 5.0 * l).powi(2));
     let mut scratch = Vec::new();
-    let mut hints = first_faces(&he);
     for round in 0..params.iterations {
         // 1. split, in the first round until no edge is too long
         for _ in 0..if round == 0 { 32 } else { 1 } {
@@ -111,10 +84,8 @@ pub(crate) fn remesh(mut he: HalfEdges, params: &RemeshParams, target: &ClosestP
                     let boundary = he.is_boundary_edge(h);
                     let mid =
                         Point3::from((he.pos[a as usize].coords + he.pos[b as usize].coords) * 0.5);
-                    let (p, f) = project(target, &mid, boundary, hints[a as usize]);
-                    let m = he.split(h, p);
-                    hints.resize(m as usize + 1, NONE);
-                    hints[m as usize] = f;
+                    let p = project(target, &mid, boundary);
+                    he.split(h, p);
                     any = true;
                 }
             }
@@ -182,23 +153,25 @@ pub(crate) fn remesh(mut he: HalfEdges, params: &RemeshParams, target: &ClosestP
                 }
             })
             .collect();
-        let moved: Vec<(u32, Point3<f64>, u32)> = live
+        let moved: Vec<(u32, Point3<f64>)> = live
             .par_iter()
             .map_init(Vec::new, |ring, &v| {
                 let boundary = he.is_boundary_vertex(v);
                 let p = he.pos[v as usize];
                 let relaxed = relaxed(&he, v, boundary, ring, &normals);
-                let (q, f) = project(target, &relaxed, boundary, hints[v as usize]);
-                if q.iter().all(|c| c.is_finite()) {
-                    (v, q, f)
-                } else {
-                    (v, p, hints[v as usize])
-                }
+                let q = project(target, &relaxed, boundary);
+                (
+                    v,
+                    if q.iter().all(|c| c.is_finite()) {
+                        q
+                    } else {
+                        p
+                    },
+                )
             })
             .collect();
-        for (v, p, f) in moved {
+        for (v, p) in moved {
             he.pos[v as usize] = p;
-            hints[v as usize] = f;
         }
     }
     he.to_mesh()
